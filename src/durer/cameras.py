@@ -1,0 +1,166 @@
+"""Cameras: each turns points on the film into rays P(t) = origin + t * direction.
+
+Film points are given in pixel units, x to the right and y *up* from the bottom-left corner of the image,
+so the centre of pixel column i, row j (counted from the bottom) is (i + 0.5, j + 0.5). The size (orthographic)
+or field of view (perspective, fisheye) spans the *shorter* image side; pixels stay square.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def orthonormal_basis(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(direction, up, horizontal) as a right-handed orthonormal frame; horizontal = direction x up.
+
+    `direction` need not be unit length and `up` need not be perpendicular to it, as the course allows.
+    """
+    d = np.asarray(direction, dtype=np.float64).reshape(3)
+    u = np.asarray(up, dtype=np.float64).reshape(3)
+    dn = np.linalg.norm(d)
+    if not dn > 0:
+        raise ValueError("camera direction has zero length")
+    d = d / dn
+    u = u - np.dot(u, d) * d
+    un = np.linalg.norm(u)
+    if not un > 1e-12 * max(1.0, np.linalg.norm(up)):
+        raise ValueError("camera up vector is parallel to its direction (or zero)")
+    u = u / un
+    h = np.cross(d, u)
+    return d, u, h
+
+
+def _film_offsets(points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Film points in pixels -> offsets from the image centre in units of the shorter side."""
+    p = np.asarray(points, dtype=np.float64)
+    short = float(min(width, height))
+    return (p[..., 0] - 0.5 * width) / short, (p[..., 1] - 0.5 * height) / short
+
+
+def pixel_centers(width: int, height: int) -> np.ndarray:
+    """Film points (H, W, 2) of the pixel centres, in image order: row 0 is the *top* row."""
+    xs = np.arange(width) + 0.5
+    ys = height - (np.arange(height) + 0.5)
+    return np.stack(np.meshgrid(xs, ys), axis=-1)
+
+
+@dataclass
+class OrthographicCamera:
+    """Parallel rays along `direction`; the film is a `size` x `size` square (shorter side) around `center`.
+
+    Its rays start "at infinity" (t_min = -inf), so objects behind the center are seen, as the course specifies.
+    """
+
+    center: np.ndarray
+    direction: np.ndarray
+    up: np.ndarray
+    size: float
+
+    t_min = -np.inf
+
+    def __post_init__(self):
+        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.size = float(self.size)
+        if not self.size > 0:
+            raise ValueError(f"camera size must be positive, got {self.size}")
+        self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
+
+    def generate_rays(self, points: np.ndarray, width: int, height: int):
+        """Rays through film points (..., 2): returns origins, directions (..., 3) and a validity mask."""
+        sx, sy = _film_offsets(points, width, height)
+        origins = self.center + (sx * self.size)[..., None] * self.horizontal + (sy * self.size)[..., None] * self.up
+        directions = np.broadcast_to(self.direction, origins.shape).copy()
+        return origins, directions, np.ones(sx.shape, dtype=bool)
+
+
+@dataclass
+class PerspectiveCamera:
+    """A pinhole at `center`; `angle` is the full field of view in degrees across the shorter image side.
+
+    Rays go through a flat virtual screen (not interpolated angles), directions are unit length, t_min = 0.
+    """
+
+    center: np.ndarray
+    direction: np.ndarray
+    up: np.ndarray
+    angle: float
+
+    t_min = 0.0
+
+    def __post_init__(self):
+        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.angle = float(self.angle)
+        if not 0 < self.angle < 180:
+            raise ValueError(f"camera angle must be between 0 and 180 degrees, got {self.angle}")
+        self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
+
+    def generate_rays(self, points: np.ndarray, width: int, height: int):
+        sx, sy = _film_offsets(points, width, height)
+        extent = 2.0 * np.tan(np.radians(self.angle) / 2.0)
+        d = self.direction + (sx * extent)[..., None] * self.horizontal + (sy * extent)[..., None] * self.up
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        origins = np.broadcast_to(self.center, d.shape).copy()
+        return origins, d, np.ones(sx.shape, dtype=bool)
+
+
+@dataclass
+class FisheyeCamera:
+    """Equidistant fisheye: the angle from the view direction grows linearly with the distance from the
+    image centre, reaching `angle`/2 at the middle of the shorter side's edge (angle may exceed 180).
+    Film points outside that circle get no ray."""
+
+    center: np.ndarray
+    direction: np.ndarray
+    up: np.ndarray
+    angle: float = 180.0
+
+    t_min = 0.0
+
+    def __post_init__(self):
+        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.angle = float(self.angle)
+        if not 0 < self.angle <= 360:
+            raise ValueError(f"fisheye angle must be in (0, 360] degrees, got {self.angle}")
+        self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
+
+    def generate_rays(self, points: np.ndarray, width: int, height: int):
+        sx, sy = _film_offsets(points, width, height)
+        r = np.hypot(sx, sy)
+        theta = r * np.radians(self.angle)  # r = 0.5 at the edge -> angle / 2
+        phi = np.arctan2(sy, sx)
+        s = np.sin(theta)
+        d = (np.cos(theta)[..., None] * self.direction + (s * np.cos(phi))[..., None] * self.horizontal
+             + (s * np.sin(phi))[..., None] * self.up)
+        origins = np.broadcast_to(self.center, d.shape).copy()
+        return origins, d, r <= 0.5
+
+
+@dataclass
+class PanoramaCamera:
+    """Equirectangular (latitude-longitude) panorama: the image width spans 360 degrees of longitude around
+    `up`, centred on `direction`, and the height spans 180 degrees of latitude (use a 2:1 image)."""
+
+    center: np.ndarray
+    direction: np.ndarray
+    up: np.ndarray
+
+    t_min = 0.0
+
+    def __post_init__(self):
+        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
+
+    def generate_rays(self, points: np.ndarray, width: int, height: int):
+        p = np.asarray(points, dtype=np.float64)
+        lon = (p[..., 0] / width - 0.5) * 2.0 * np.pi
+        lat = (p[..., 1] / height - 0.5) * np.pi
+        c = np.cos(lat)
+        d = ((c * np.cos(lon))[..., None] * self.direction + (c * np.sin(lon))[..., None] * self.horizontal
+             + np.sin(lat)[..., None] * self.up)
+        origins = np.broadcast_to(self.center, d.shape).copy()
+        return origins, d, np.ones(lon.shape, dtype=bool)
+
+
+Camera = OrthographicCamera | PerspectiveCamera | FisheyeCamera | PanoramaCamera

@@ -1,0 +1,118 @@
+"""Scene -> CompiledScene: the object tree flattened into NumPy arrays the kernels read.
+
+Transforms are applied here, once: triangles and planes are moved into world space (a transformed triangle is
+still a triangle, a transformed plane still a plane), so `t` is measured in world units for free. A sphere under
+a transform becomes an ellipsoid, so it keeps its world-to-object matrix and is intersected in object space with
+the direction left unnormalised, which keeps t in world units too (the course's scene2_16_t_scale checks this).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .scene import Group, Scene, Transform
+from .shapes import Plane, Sphere, Triangle, TriangleMesh
+
+# Hit kinds, as stored in Hits.kind
+MISS, TRIANGLE, SPHERE, PLANE = 0, 1, 2, 3
+
+
+@dataclass
+class CompiledScene:
+    """Flat geometry arrays (float64, C-contiguous). Normals come out of the kernels unit length, world space."""
+
+    triangles: np.ndarray          # (F, 3, 3) world-space vertices
+    triangle_material: np.ndarray  # (F,) int32
+    sphere_center: np.ndarray      # (S, 3) object space
+    sphere_radius: np.ndarray      # (S,)
+    sphere_world_to_object: np.ndarray  # (S, 3, 4) affine
+    sphere_normal_matrix: np.ndarray    # (S, 3, 3) object normal -> world normal (inverse transpose)
+    sphere_material: np.ndarray    # (S,) int32
+    plane_normal: np.ndarray       # (P, 3) unit
+    plane_offset: np.ndarray       # (P,)  dot(x, normal) = offset
+    plane_material: np.ndarray     # (P,) int32
+
+    @property
+    def counts(self) -> tuple[int, int, int]:
+        return len(self.triangles), len(self.sphere_radius), len(self.plane_offset)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """World bounding box of the bounded primitives (triangles and spheres); planes are unbounded."""
+        lo, hi = [], []
+        if len(self.triangles):
+            lo.append(self.triangles.min(axis=(0, 1)))
+            hi.append(self.triangles.max(axis=(0, 1)))
+        if len(self.sphere_radius):
+            slo, shi = sphere_bounds(self)
+            lo.append(slo.min(axis=0))
+            hi.append(shi.max(axis=0))
+        if not lo:
+            return np.zeros(3), np.zeros(3)
+        return np.min(lo, axis=0), np.max(hi, axis=0)
+
+
+def sphere_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
+    """Exact world boxes (S,3) of the (possibly transformed) spheres: centre +- r * row norms of M."""
+    if not len(cs.sphere_radius):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    inv = np.zeros((len(cs.sphere_radius), 4, 4))
+    inv[:, :3, :] = cs.sphere_world_to_object
+    inv[:, 3, 3] = 1.0
+    m = np.linalg.inv(inv)
+    center = np.einsum("sij,sj->si", m[:, :3, :3], cs.sphere_center) + m[:, :3, 3]
+    extent = cs.sphere_radius[:, None] * np.linalg.norm(m[:, :3, :3], axis=2)
+    return center - extent, center + extent
+
+
+def compile_scene(scene: Scene) -> CompiledScene:
+    """Flatten the scene's object tree into arrays, applying every transform."""
+    tris: list[np.ndarray] = []
+    tri_mat: list[np.ndarray] = []
+    sph: list[tuple] = []
+    planes: list[tuple] = []
+
+    def visit(obj, m: np.ndarray) -> None:
+        if isinstance(obj, Group):
+            for child in obj.objects:
+                visit(child, m)
+        elif isinstance(obj, Transform):
+            visit(obj.object, m @ obj.matrix)
+        elif isinstance(obj, Sphere):
+            inv = np.linalg.inv(m)
+            sph.append((obj.center, obj.radius, inv[:3, :], inv[:3, :3].T, obj.material))
+        elif isinstance(obj, Plane):
+            n = obj.normal / np.linalg.norm(obj.normal)
+            d = obj.offset / np.linalg.norm(obj.normal)
+            inv = np.linalg.inv(m)
+            nw = inv[:3, :3].T @ n
+            dw = d - n @ inv[:3, 3]
+            length = np.linalg.norm(nw)
+            planes.append((nw / length, dw / length, obj.material))
+        elif isinstance(obj, (Triangle, TriangleMesh)):
+            if isinstance(obj, Triangle):
+                v = np.array([[obj.vertex0, obj.vertex1, obj.vertex2]])
+            else:
+                v = obj.vertices[obj.faces]
+            v = v @ m[:3, :3].T + m[:3, 3]
+            if np.linalg.det(m[:3, :3]) < 0:  # a mirror flips the winding; keep the inverse-transpose normal
+                v = v[:, [0, 2, 1]]
+            tris.append(v)
+            tri_mat.append(np.full(len(v), obj.material, dtype=np.int32))
+        else:
+            raise TypeError(f"not a scene object: {type(obj).__name__}")
+
+    visit(scene.group, np.eye(4))
+    return CompiledScene(
+        triangles=np.ascontiguousarray(np.concatenate(tris) if tris else np.zeros((0, 3, 3))),
+        triangle_material=np.concatenate(tri_mat) if tri_mat else np.zeros(0, np.int32),
+        sphere_center=np.array([s[0] for s in sph], dtype=np.float64).reshape(-1, 3),
+        sphere_radius=np.array([s[1] for s in sph], dtype=np.float64),
+        sphere_world_to_object=np.array([s[2] for s in sph], dtype=np.float64).reshape(-1, 3, 4),
+        sphere_normal_matrix=np.array([s[3] for s in sph], dtype=np.float64).reshape(-1, 3, 3),
+        sphere_material=np.array([s[4] for s in sph], dtype=np.int32),
+        plane_normal=np.array([p[0] for p in planes], dtype=np.float64).reshape(-1, 3),
+        plane_offset=np.array([p[1] for p in planes], dtype=np.float64),
+        plane_material=np.array([p[2] for p in planes], dtype=np.int32),
+    )

@@ -1,0 +1,99 @@
+"""Integrators: what colour a camera ray brings back.
+
+`raycast` is the lecture's algorithm: eye rays only, the closest hit shaded from its normal, the lights and the
+viewpoint (flat colour when the scene has no lights at all, as in assignment 1). The ray tracer, which adds
+secondary rays, builds on the same RenderContext.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .compile import CompiledScene
+from .hits import Hits, geometric_normals, hit_materials
+from .scene import Scene
+from .shading import MaterialTable, light_directions, phong
+
+
+@dataclass
+class RenderOptions:
+    """Switches of a render; the CLI flags map onto these one to one."""
+
+    shade_back: bool = False   # light both sides of surfaces (the course's -shade_back)
+    shadows: bool = False
+    bounces: int = 0
+    weight: float = 0.01
+
+
+@dataclass
+class RenderContext:
+    """What every integrator needs: the scene, its flattened geometry, an accelerator and the options."""
+
+    scene: Scene
+    compiled: CompiledScene
+    accel: object
+    options: RenderOptions = field(default_factory=RenderOptions)
+    materials: MaterialTable | None = None
+
+    def __post_init__(self):
+        if self.materials is None and self.scene.lights is not None:
+            self.materials = MaterialTable.from_materials(self.scene.materials)
+
+
+@dataclass
+class SampleResult:
+    """Per-ray results: linear colour (N,3), t of the closest hit (inf on a miss), world normal (N,3)."""
+
+    color: np.ndarray
+    t: np.ndarray
+    normal: np.ndarray
+
+
+def surface(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, hits: Hits):
+    """Hit points, geometric normals and material ids of the hits (rows where hits.hit)."""
+    t = np.where(hits.hit, hits.t, 0.0)
+    points = origins + t[:, None] * directions
+    normals = geometric_normals(ctx.compiled, hits, points)
+    return points, normals, hit_materials(ctx.compiled, hits)
+
+
+def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float) -> SampleResult:
+    """Eye rays only: background on a miss; flat colour or ambient + diffuse + specular on a hit."""
+    scene = ctx.scene
+    hits = ctx.accel.closest_hit(origins, directions, t_min=t_min)
+    n = len(origins)
+    color = np.broadcast_to(scene.background_color, (n, 3)).copy()
+    points, normals, mat = surface(ctx, origins, directions, hits)
+    m = hits.hit
+    if scene.lights is None:  # assignment 1: the object's own colour
+        diffuse = np.array([mm.diffuse_color for mm in scene.materials]).reshape(-1, 3)
+        color[m] = diffuse[mat[m]]
+    elif m.any():
+        color[m] = shade_local(ctx, points[m], normals[m], directions[m], mat[m])
+    return SampleResult(color, hits.t, normals)
+
+
+def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visible=None) -> np.ndarray:
+    """Ambient + each light's diffuse and specular term at the hits.
+
+    A back face (the ray arrives from the side the normal points away from) is flipped and lit when
+    shade_back is on; otherwise it is black, as the course's reference images show it.
+    `light_visible`, if given, is a list of (N,) masks, one per light (shadow rays).
+    """
+    table = ctx.materials
+    d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    back = np.einsum("ij,ij->i", d, normals) > 0
+    normals = np.where(back[:, None], -normals, normals)
+    kd, ks, e = table.diffuse[mat], table.specular[mat], table.exponent[mat]
+    color = ctx.scene.ambient_light * kd
+    for i, light in enumerate(ctx.scene.lights):
+        to_light, light_color, _ = light_directions(light, points)
+        contribution = phong(normals, -d, to_light, light_color, kd, ks, e)
+        if light_visible is not None:
+            contribution = contribution * light_visible[i][:, None]
+        color = color + contribution
+    if not ctx.options.shade_back:
+        color[back] = 0.0
+    return color

@@ -1,0 +1,93 @@
+"""Image output: colour, depth and normal visualisations, written atomically by file extension.
+
+8-bit formats (PNG, TGA, PPM, BMP) go through Pillow; `.npy` and `.pfm` keep the raw float arrays.
+Course outputs are quantised as the course's Image class does: clamp to [0, 1], multiply by 255, truncate
+(no transfer curve). Native outputs are sRGB-encoded and rounded, as image viewers expect.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+from PIL import Image
+
+from ..errors import UsageError
+
+EIGHT_BIT = {".png": "PNG", ".tga": "TGA", ".ppm": "PPM", ".bmp": "BMP"}
+RAW = (".npy", ".pfm")
+EXTENSIONS = tuple(EIGHT_BIT) + RAW
+
+
+def check_extension(path: str) -> str:
+    """The lower-case extension of an output path, or a UsageError naming the supported ones."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in EXTENSIONS:
+        raise UsageError(f"cannot write '{path}': unknown image extension '{ext}' (use one of "
+                         f"{', '.join(EXTENSIONS)})")
+    return ext
+
+
+def quantize_course(values: np.ndarray) -> np.ndarray:
+    """float in [0,1] -> uint8 the course's way: int(c * 255), clamped."""
+    return np.clip(np.floor(np.nan_to_num(values) * 255.0), 0, 255).astype(np.uint8)
+
+
+def encode_srgb(linear: np.ndarray) -> np.ndarray:
+    """Linear radiance -> sRGB-encoded uint8 (IEC 61966-2-1 curve), rounded."""
+    c = np.clip(np.nan_to_num(linear), 0.0, 1.0)
+    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    return np.clip(np.round(s * 255.0), 0, 255).astype(np.uint8)
+
+
+def depth_visualization(t: np.ndarray, near: float, far: float) -> np.ndarray:
+    """Grey (far - t) / (far - near) clamped to [0,1]: near is white, far and misses black (course style)."""
+    grey = np.clip((far - t) / (far - near), 0.0, 1.0)
+    grey[~np.isfinite(t)] = 0.0
+    return grey
+
+
+def normal_visualization(normals: np.ndarray) -> np.ndarray:
+    """|n| per channel, so a +-z normal is pure blue; misses (zero normals) stay black."""
+    return np.abs(normals)
+
+
+def _write_pfm(f, data: np.ndarray) -> None:
+    data = np.asarray(data, dtype="<f4")
+    colour = data.ndim == 3
+    h, w = data.shape[:2]
+    f.write(f"{'PF' if colour else 'Pf'}\n{w} {h}\n-1.0\n".encode("ascii"))
+    f.write(np.ascontiguousarray(data[::-1]).tobytes())  # PFM rows run bottom to top
+
+
+def write_atomic(path: str, write) -> None:
+    """Call write(file) on a temporary file beside `path`, then rename it into place: never a half-written file."""
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".durer-", suffix=os.path.splitext(path)[1], dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:
+    """Write (H,W,3) or (H,W) float data. 8-bit formats quantise (course: truncate, else sRGB); raw formats
+    store the floats as they are."""
+    ext = check_extension(path)
+    data = np.asarray(data)
+    if ext == ".npy":
+        write_atomic(path, lambda f: np.save(f, data.astype(np.float32)))
+        return
+    if ext == ".pfm":
+        write_atomic(path, lambda f: _write_pfm(f, data))
+        return
+    pixels = quantize_course(data) if course else encode_srgb(data)
+    if pixels.ndim == 2:
+        pixels = np.repeat(pixels[:, :, None], 3, axis=2)
+    image = Image.fromarray(np.ascontiguousarray(pixels), mode="RGB")
+    write_atomic(path, lambda f: image.save(f, format=EIGHT_BIT[ext]))

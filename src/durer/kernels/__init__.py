@@ -1,0 +1,1 @@
+"""Numba kernels: the only code that loops over rays and primitives."""

@@ -1,0 +1,37 @@
+"""Lights: directional (no falloff) and point (with the course's a + b*d + c*d^2 attenuation)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class DirectionalLight:
+    """Light arriving everywhere along `direction` (the direction it travels, not towards the light)."""
+
+    direction: np.ndarray
+    color: np.ndarray = (1.0, 1.0, 1.0)
+
+    def __post_init__(self):
+        self.direction = np.asarray(self.direction, dtype=np.float64).reshape(3)
+        self.color = np.asarray(self.color, dtype=np.float64).reshape(3)
+        n = np.linalg.norm(self.direction)
+        if not n > 0:
+            raise ValueError("light direction has zero length")
+        self.direction = self.direction / n
+
+
+@dataclass
+class PointLight:
+    """Light from `position`, scaled by 1 / (a + b*d + c*d^2) at distance d (default: constant)."""
+
+    position: np.ndarray
+    color: np.ndarray = (1.0, 1.0, 1.0)
+    attenuation: tuple[float, float, float] = (1.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
+        self.color = np.asarray(self.color, dtype=np.float64).reshape(3)
+        self.attenuation = tuple(float(a) for a in self.attenuation)

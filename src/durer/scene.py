@@ -1,0 +1,56 @@
+"""The scene description: Group, Transform and Scene. Plain data, no maths (see compile.py)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Union
+
+import numpy as np
+
+from .lights import DirectionalLight, PointLight
+from .materials import PhongMaterial
+from .shapes import Plane, Sphere, Triangle, TriangleMesh
+
+
+@dataclass
+class Group:
+    """A list of objects intersected together (the course's Group)."""
+
+    objects: list = field(default_factory=list)
+
+
+@dataclass
+class Transform:
+    """An object seen through the affine `matrix` (4x4, object space to world space)."""
+
+    matrix: np.ndarray
+    object: object
+
+    def __post_init__(self):
+        self.matrix = np.asarray(self.matrix, dtype=np.float64).reshape(4, 4)
+        if abs(np.linalg.det(self.matrix[:3, :3])) < 1e-300:
+            raise ValueError("transform matrix is singular")
+
+
+Object3D = Union[Group, Transform, Sphere, Plane, Triangle, TriangleMesh]
+Light = Union[DirectionalLight, PointLight]
+
+
+@dataclass
+class Scene:
+    """Everything a render needs: a camera, the background, lights, materials and the root group.
+
+    Shapes refer to materials by index into `materials`.
+    """
+
+    camera: object
+    group: Group
+    materials: list = field(default_factory=lambda: [PhongMaterial()])
+    lights: list | None = None  # None: no lights at all, objects show their flat colour (assignment 1)
+    background_color: np.ndarray = (0.0, 0.0, 0.0)
+    ambient_light: np.ndarray = (0.0, 0.0, 0.0)
+    source: str | None = None
+
+    def __post_init__(self):
+        self.background_color = np.asarray(self.background_color, dtype=np.float64).reshape(3)
+        self.ambient_light = np.asarray(self.ambient_light, dtype=np.float64).reshape(3)

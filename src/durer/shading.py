@@ -1,0 +1,74 @@
+"""Local shading at hit points: the course's flat colour (assignment 1) and Blinn-Phong (assignments 2-3).
+
+    colour = ambient * kd + sum_lights  light_i * (kd * max(N.L_i, 0) + ks * max(N.H_i, 0)^exponent)
+
+with H the half vector between the direction to the light and the direction to the viewer, as the course's
+"Blinn-Torrance version of the Phong model". Everything is vectorised over the hits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import DurerError
+from .lights import DirectionalLight, PointLight
+from .materials import PhongMaterial
+
+
+@dataclass
+class MaterialTable:
+    """The scene's Phong materials as arrays indexed by material id."""
+
+    diffuse: np.ndarray      # (M,3)
+    specular: np.ndarray     # (M,3)
+    exponent: np.ndarray     # (M,)
+    reflective: np.ndarray   # (M,3)
+    transparent: np.ndarray  # (M,3)
+    ior: np.ndarray          # (M,)
+
+    @classmethod
+    def from_materials(cls, materials: list) -> MaterialTable:
+        for i, m in enumerate(materials):
+            if not isinstance(m, PhongMaterial):
+                raise DurerError(f"material {i} is a {type(m).__name__}: solid textures need the ray tracer")
+        return cls(
+            diffuse=np.array([m.diffuse_color for m in materials]).reshape(-1, 3),
+            specular=np.array([m.specular_color for m in materials]).reshape(-1, 3),
+            exponent=np.array([m.exponent for m in materials], dtype=np.float64),
+            reflective=np.array([m.reflective_color for m in materials]).reshape(-1, 3),
+            transparent=np.array([m.transparent_color for m in materials]).reshape(-1, 3),
+            ior=np.array([m.index_of_refraction for m in materials], dtype=np.float64),
+        )
+
+
+def light_directions(light, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each point: unit direction towards the light, the light's colour there, and its distance (inf for
+    a directional light)."""
+    n = len(points)
+    if isinstance(light, DirectionalLight):
+        to_light = np.broadcast_to(-light.direction, (n, 3))
+        return to_light, np.broadcast_to(light.color, (n, 3)), np.full(n, np.inf)
+    if isinstance(light, PointLight):
+        v = light.position - points
+        dist = np.linalg.norm(v, axis=1)
+        to_light = v / np.maximum(dist, 1e-300)[:, None]
+        a, b, c = light.attenuation
+        scale = 1.0 / np.maximum(a + b * dist + c * dist * dist, 1e-300)
+        return to_light, light.color[None, :] * scale[:, None], dist
+    raise TypeError(f"not a light: {type(light).__name__}")
+
+
+def phong(normals: np.ndarray, to_viewer: np.ndarray, to_light: np.ndarray, light_color: np.ndarray,
+          diffuse: np.ndarray, specular: np.ndarray, exponent: np.ndarray) -> np.ndarray:
+    """One light's diffuse + specular contribution (N,3); normals, to_viewer and to_light are unit vectors."""
+    n_dot_l = np.einsum("ij,ij->i", normals, to_light)
+    lit = np.maximum(n_dot_l, 0.0)[:, None] * diffuse
+    if np.any(specular):
+        h = to_light + to_viewer
+        h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+        n_dot_h = np.maximum(np.einsum("ij,ij->i", normals, h), 0.0)
+        spec = np.where(n_dot_l > 0, n_dot_h ** exponent, 0.0)
+        lit = lit + spec[:, None] * specular
+    return lit * light_color

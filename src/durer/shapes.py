@@ -1,0 +1,74 @@
+"""Shape descriptions: Sphere, Plane, Triangle, TriangleMesh. Plain data; the maths lives in kernels/."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def _vec3(v) -> np.ndarray:
+    a = np.asarray(v, dtype=np.float64).reshape(3)
+    return a
+
+
+@dataclass
+class Sphere:
+    """All points at distance `radius` from `center`."""
+
+    center: np.ndarray
+    radius: float
+    material: int = 0
+
+    def __post_init__(self):
+        self.center = _vec3(self.center)
+        self.radius = float(self.radius)
+        if not self.radius > 0:
+            raise ValueError(f"sphere radius must be positive, got {self.radius}")
+
+
+@dataclass
+class Plane:
+    """The infinite plane of points P with dot(P, normal) = offset (the normal need not be unit length)."""
+
+    normal: np.ndarray
+    offset: float
+    material: int = 0
+
+    def __post_init__(self):
+        self.normal = _vec3(self.normal)
+        self.offset = float(self.offset)
+        if not np.linalg.norm(self.normal) > 0:
+            raise ValueError("plane normal has zero length")
+
+
+@dataclass
+class Triangle:
+    """A triangle; counter-clockwise vertex order (seen from the front) gives the front-facing normal."""
+
+    vertex0: np.ndarray
+    vertex1: np.ndarray
+    vertex2: np.ndarray
+    material: int = 0
+
+    def __post_init__(self):
+        self.vertex0, self.vertex1, self.vertex2 = (_vec3(v) for v in (self.vertex0, self.vertex1, self.vertex2))
+
+
+@dataclass
+class TriangleMesh:
+    """Indexed triangles: `vertices` (V,3) float, `faces` (F,3) int, 0-based."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    material: int = 0
+    source: str | None = field(default=None, compare=False)
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
+        self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
+        if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= len(self.vertices)):
+            raise ValueError(
+                f"face index out of range: mesh has {len(self.vertices)} vertices, "
+                f"faces use {self.faces.min()}..{self.faces.max()}"
+            )
