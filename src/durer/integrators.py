@@ -13,18 +13,9 @@ import numpy as np
 
 from .compile import CompiledScene
 from .hits import Hits, geometric_normals, hit_materials
+from .options import RenderOptions
 from .scene import Scene
 from .shading import MaterialTable, light_directions, phong
-
-
-@dataclass
-class RenderOptions:
-    """Switches of a render; the CLI flags map onto these one to one."""
-
-    shade_back: bool = False   # light both sides of surfaces (the course's -shade_back)
-    shadows: bool = False
-    bounces: int = 0
-    weight: float = 0.01
 
 
 @dataclass

@@ -5,16 +5,17 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from tqdm import tqdm
 
-from .cameras import pixel_centers
+from . import film
 from .compile import compile_scene
 from .hits import BruteForce
-from .integrators import RenderContext, RenderOptions, SampleResult, raycast
+from .integrators import RenderContext, SampleResult, raycast
 from .io.images import depth_visualization, normal_visualization, save_image
+from .options import RenderOptions
 from .scene import Scene
 
 CHUNK = 1 << 15  # rays per batch: big enough to keep the kernels busy, small enough for a live progress bar
@@ -25,7 +26,8 @@ class RenderResult:
     """The arrays of one render, each (H, W, ...), row 0 at the top.
 
     color: float32 (H,W,3) linear radiance; depth: float32 (H,W) ray parameter t of the closest hit (inf on a miss);
-    normals: float32 (H,W,3) unit world-space normals of the closest hit (0 on a miss).
+    normals: float32 (H,W,3) unit world-space normals of the closest hit (0 on a miss). With several samples per
+    pixel, depth and normals are those of the sample nearest the pixel's centre.
     """
 
     color: np.ndarray
@@ -61,10 +63,19 @@ class RenderResult:
         save_image(path, normal_visualization(self.normals), course=True)
 
 
-def make_context(scene: Scene, options: RenderOptions | None = None, accelerator: str = "auto") -> RenderContext:
+def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     """Compile the scene and build its accelerator."""
     cs = compile_scene(scene)
-    return RenderContext(scene=scene, compiled=cs, accel=BruteForce(cs), options=options or RenderOptions())
+    return RenderContext(scene=scene, compiled=cs, accel=BruteForce(cs), options=options)
+
+
+def choose_integrator(options: RenderOptions):
+    """The lecture's ray caster unless the options ask for secondary rays."""
+    if options.shadows or options.bounces > 0:
+        from .tracer import whitted
+
+        return whitted
+    return raycast
 
 
 def _progress(total: int, quiet: bool):
@@ -74,21 +85,48 @@ def _progress(total: int, quiet: bool):
                 desc="rendering", file=sys.stderr)
 
 
-def render(scene: Scene, width: int, height: int, *, shade_back: bool = False, quiet: bool = True,
-           integrator=None, options: RenderOptions | None = None) -> RenderResult:
-    """Cast one ray through each pixel centre and shade it; returns colour, depth and normal arrays."""
+def parse_filter(spec: str) -> tuple[str, float | None]:
+    """'gaussian:0.4' -> ('gaussian', 0.4); 'tent' -> ('tent', None)."""
+    name, _, width = spec.partition(":")
+    if not width:
+        return name, None
+    try:
+        return name, float(width)
+    except ValueError:
+        raise ValueError(f"filter width is not a number: {spec!r}") from None
+
+
+def make_options(options: RenderOptions | None = None, **kwargs) -> RenderOptions:
+    """RenderOptions from keyword arguments (those of RenderOptions; `filter` may be 'name' or 'name:width')."""
+    if options is not None and kwargs:
+        raise TypeError("pass either options or keyword arguments, not both")
+    if options is None:
+        known = {f.name for f in fields(RenderOptions)}
+        unknown = set(kwargs) - known
+        if unknown:
+            raise TypeError(f"unknown render option(s): {', '.join(sorted(unknown))}")
+        if isinstance(kwargs.get("filter"), str) and ":" in kwargs["filter"]:
+            kwargs["filter"], kwargs["filter_radius"] = parse_filter(kwargs["filter"])
+        options = RenderOptions(**kwargs)
+    options.validate()
+    return options
+
+
+def render(scene: Scene, width: int, height: int, *, options: RenderOptions | None = None, quiet: bool = True,
+           **kwargs) -> RenderResult:
+    """Render `scene` at width x height; keyword arguments are RenderOptions fields (shade_back, shadows,
+    bounces, weight, samples, sampler, filter, seed, ...). Returns colour, depth and normal arrays."""
     if int(width) != width or int(height) != height or width < 1 or height < 1:
         raise ValueError(f"image size must be positive integers, got {width} x {height}")
     width, height = int(width), int(height)
+    options = make_options(options, **kwargs)
     start = time.perf_counter()
-    if options is None:
-        options = RenderOptions(shade_back=shade_back)
     ctx = make_context(scene, options)
-    integrate = integrator or raycast
-    points = pixel_centers(width, height).reshape(-1, 2)
+    integrate = choose_integrator(options)
+    points, pixel = film.sample_points(width, height, options)
     origins, directions, valid = scene.camera.generate_rays(points, width, height)
     n = len(points)
-    color = np.zeros((n, 3))
+    color = np.broadcast_to(np.zeros(3), (n, 3)).copy()
     depth = np.full(n, np.inf)
     normals = np.zeros((n, 3))
     idx = np.flatnonzero(valid)
@@ -98,9 +136,23 @@ def render(scene: Scene, width: int, height: int, *, shade_back: bool = False, q
             r: SampleResult = integrate(ctx, origins[sel], directions[sel], scene.camera.t_min)
             color[sel], depth[sel], normals[sel] = r.color, r.t, r.normal
             bar.update(len(sel))
+    pixels = film.reconstruct(points, pixel, color, width, height, options)
+    centre = _nearest_to_centre(points, pixel, width, height)
     return RenderResult(
-        color=color.reshape(height, width, 3).astype(np.float32),
-        depth=depth.reshape(height, width).astype(np.float32),
-        normals=normals.reshape(height, width, 3).astype(np.float32),
+        color=pixels.reshape(height, width, 3).astype(np.float32),
+        depth=depth[centre].reshape(height, width).astype(np.float32),
+        normals=normals[centre].reshape(height, width, 3).astype(np.float32),
         seconds=time.perf_counter() - start,
     )
+
+
+def _nearest_to_centre(points: np.ndarray, pixel: np.ndarray, width: int, height: int) -> np.ndarray:
+    """For each pixel (row-major), the index of its sample nearest the pixel's centre."""
+    if len(pixel) == width * height and np.array_equal(pixel, np.arange(width * height)):
+        return pixel
+    row, col = np.divmod(pixel, width)
+    d2 = (points[:, 0] - (col + 0.5)) ** 2 + (points[:, 1] - (height - row - 0.5)) ** 2
+    order = np.lexsort((d2, pixel))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = pixel[order[1:]] != pixel[order[:-1]]
+    return order[first]

@@ -1,0 +1,297 @@
+"""The `durer` command.
+
+    durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's own flags, verbatim
+    durer render SCENE -o OUT.png [--size W H] [...]          the modern command
+
+Every user error ends in one line on stderr (`file:line: message` for scene files) and exit status 2,
+and no output file is created or truncated: outputs are written only after a successful render, atomically.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from .errors import DurerError, UsageError
+from .io.images import check_extension
+from .options import FILTERS, SAMPLERS, RenderOptions
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that raises UsageError instead of exiting, so every error path ends in the same place."""
+
+    def error(self, message: str):
+        raise UsageError(f"{self.format_usage().strip()}\n{self.prog}: error: {message}")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
+    return value
+
+
+def _number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def _positive_number(text: str) -> float:
+    value = _number(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def _depth(values: list[str], flag: str) -> tuple[float, float, str]:
+    near, far, path = values
+    try:
+        near_f, far_f = _number(near), _number(far)
+    except argparse.ArgumentTypeError as e:
+        raise UsageError(f"{flag}: {e} (usage: {flag} NEAR FAR FILE)") from None
+    if near_f == far_f:
+        raise UsageError(f"{flag}: NEAR and FAR must differ")
+    return near_f, far_f, path
+
+
+# --- the course's command -----------------------------------------------------------------------------------
+def course_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="durer raycast", allow_abbrev=False,
+                usage="durer raycast -input SCENE -size W H -output FILE [options] (see --help)",
+                description="Render a MIT 6.837 scene with the course's own command-line flags.")
+    p.add_argument("-input", required=True, metavar="SCENE", help="scene file")
+    p.add_argument("-size", required=True, nargs=2, type=_positive_int, metavar=("W", "H"), help="image size")
+    p.add_argument("-output", metavar="FILE", help="shaded image (.tga, .png, .ppm, .bmp, .npy, .pfm)")
+    p.add_argument("-depth", nargs=3, metavar=("NEAR", "FAR", "FILE"), help="depth image: NEAR white, FAR black")
+    p.add_argument("-normals", metavar="FILE", help="normal image: |n| per channel")
+    p.add_argument("-shade_back", action="store_true", help="light both sides of surfaces")
+    p.add_argument("-shadows", action="store_true", help="cast shadow rays")
+    p.add_argument("-bounces", type=_nonneg_int, default=0, metavar="N", help="reflection/refraction depth")
+    p.add_argument("-weight", type=_number, default=0.01, metavar="W", help="cut off rays weaker than W")
+    p.add_argument("-grid", nargs=3, type=_positive_int, metavar=("NX", "NY", "NZ"), help="use a uniform grid")
+    p.add_argument("-visualize_grid", action="store_true", help="draw the grid's occupied cells")
+    p.add_argument("-stats", action="store_true", help="print ray-tracing statistics")
+    for kind in SAMPLERS:
+        p.add_argument(f"-{kind}_samples", type=_positive_int, metavar="N", help=f"{kind} samples per pixel")
+    p.add_argument("-box_filter", type=_positive_number, metavar="R", help="box filter of radius R pixels")
+    p.add_argument("-tent_filter", type=_positive_number, metavar="R", help="tent filter of radius R pixels")
+    p.add_argument("-gaussian_filter", type=_positive_number, metavar="SIGMA", help="gaussian filter")
+    p.add_argument("-render_samples", nargs=2, metavar=("FILE", "ZOOM"), help="debug image of the samples")
+    p.add_argument("-render_filter", nargs=2, metavar=("FILE", "ZOOM"), help="debug image of the filter")
+    p.add_argument("-gui", action="store_true", help="(OpenGL preview: accepted and ignored)")
+    p.add_argument("-tessellation", nargs=2, metavar=("THETA", "PHI"), help="(preview only: ignored)")
+    p.add_argument("-gouraud", action="store_true", help="(preview only: ignored)")
+    return p
+
+
+def _course_options(a: argparse.Namespace) -> RenderOptions:
+    samplers = [k for k in SAMPLERS if getattr(a, f"{k}_samples") is not None]
+    filters = [k for k in FILTERS if getattr(a, f"{k}_filter") is not None]
+    if len(samplers) > 1:
+        raise UsageError(f"choose one sampler, not {' and '.join('-' + s + '_samples' for s in samplers)}")
+    if len(filters) > 1:
+        raise UsageError(f"choose one filter, not {' and '.join('-' + f + '_filter' for f in filters)}")
+    opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
+                         grid=tuple(a.grid) if a.grid else None, visualize_grid=a.visualize_grid, stats=a.stats)
+    if samplers:
+        opts.sampler = samplers[0]
+        opts.samples = getattr(a, f"{samplers[0]}_samples")
+    if filters:
+        opts.filter = filters[0]
+        opts.filter_radius = getattr(a, f"{filters[0]}_filter")
+    if a.visualize_grid and not a.grid:
+        raise UsageError("-visualize_grid needs -grid NX NY NZ")
+    return opts
+
+
+def _zoom(values: list[str] | None, flag: str) -> tuple[str, int] | None:
+    if values is None:
+        return None
+    try:
+        return values[0], _positive_int(values[1])
+    except argparse.ArgumentTypeError as e:
+        raise UsageError(f"{flag} ZOOM: {e}") from None
+
+
+def _check_outputs(paths: list[str]) -> None:
+    """Fail before rendering if an output cannot be written: unknown extension or missing folder."""
+    for path in paths:
+        check_extension(path)
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise UsageError(f"cannot write '{path}': folder '{folder}' does not exist")
+
+
+def run_course(argv: list[str]) -> int:
+    a = course_parser().parse_args(argv)
+    opts = _course_options(a)
+    depth = _depth(a.depth, "-depth") if a.depth else None
+    samples_dbg = _zoom(a.render_samples, "-render_samples")
+    filter_dbg = _zoom(a.render_filter, "-render_filter")
+    outputs = [p for p in (a.output, depth and depth[2], a.normals, samples_dbg and samples_dbg[0],
+                           filter_dbg and filter_dbg[0]) if p]
+    if not outputs:
+        raise UsageError("nothing to write: give -output, -depth, -normals, -render_samples or -render_filter")
+    _check_outputs(outputs)
+    ignored = [f for f, on in (("-gui", a.gui), ("-tessellation", a.tessellation), ("-gouraud", a.gouraud)) if on]
+    if ignored:
+        print(f"durer: {', '.join(ignored)} (the course's OpenGL preview) ignored: rendering to files only",
+              file=sys.stderr)
+    from . import load
+    from .render import render
+
+    scene = load(a.input)
+    width, height = a.size
+    if samples_dbg or filter_dbg:
+        from . import film
+
+        if samples_dbg:
+            film.write_samples_image(samples_dbg[0], scene, width, height, opts, samples_dbg[1])
+        if filter_dbg:
+            film.write_filter_image(filter_dbg[0], width, height, opts, filter_dbg[1])
+        if not (a.output or depth or a.normals):
+            return 0
+    opts.validate()
+    result = render(scene, width, height, options=opts, quiet=False)
+    if a.output:
+        result.save(a.output, course=True)
+    if depth:
+        result.save_depth(depth[2], depth[0], depth[1])
+    if a.normals:
+        result.save_normals(a.normals)
+    if a.stats:
+        print(f"rendered {width}x{height} in {result.seconds:.3f} s", file=sys.stderr)
+    return 0
+
+
+# --- the modern command --------------------------------------------------------------------------------------
+def render_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="durer render", allow_abbrev=False,
+                usage="durer render SCENE -o OUT [options] (see --help)",
+                description="Render a scene file to an image (colour, and optionally depth and normals).",
+                epilog="Image formats by extension: .png .tga .ppm .bmp (8-bit), .npy .pfm (raw float arrays: "
+                       "linear colour, t, normals). Exit status 2 on any user error.")
+    p.add_argument("scene", help="scene file (MIT 6.837 format)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
+    p.add_argument("--size", nargs=2, type=_positive_int, default=(512, 512), metavar=("W", "H"),
+                   help="image width and height in pixels (default: 512 512)")
+    p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
+                   help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
+    p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
+    p.add_argument("--shade-back", action="store_true", help="light back faces too (else they are black)")
+    p.add_argument("--shadows", action="store_true", help="cast shadow rays to every light")
+    p.add_argument("--bounces", type=_nonneg_int, default=0, metavar="N",
+                   help="maximum depth of reflection and refraction rays (default: 0)")
+    p.add_argument("--weight", type=_number, default=0.01, metavar="W",
+                   help="stop rays whose contribution is below W (default: 0.01)")
+    p.add_argument("--samples", type=_positive_int, default=1, metavar="N",
+                   help="samples per pixel, jittered when N > 1 (default: 1, the pixel centre)")
+    p.add_argument("--sampler", choices=SAMPLERS, default=None,
+                   help="sample pattern when --samples > 1 (default: jittered)")
+    p.add_argument("--filter", default="box", metavar="NAME[:WIDTH]",
+                   help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
+                        "pixels, e.g. gaussian:0.4 (default: box:0.5)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
+    p.add_argument("--linear", action="store_true",
+                   help="write 8-bit colour without the sRGB curve, truncated as the course does")
+    p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
+                   help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
+    return p
+
+
+def run_render(argv: list[str]) -> int:
+    from .render import parse_filter, render
+
+    a = render_parser().parse_args(argv)
+    try:
+        name, radius = parse_filter(a.filter)
+    except ValueError as e:
+        raise UsageError(f"--filter: {e}") from None
+    if name not in FILTERS:
+        raise UsageError(f"--filter: unknown filter {name!r} (use one of {', '.join(FILTERS)})")
+    if radius is not None and not radius > 0:
+        raise UsageError("--filter: the width must be positive")
+    sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
+    opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
+                         samples=a.samples, sampler=sampler, filter=name,
+                         filter_radius=radius if radius is not None else 0.5, seed=a.seed)
+    depth = _depth(a.depth, "--depth") if a.depth else None
+    _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
+    from . import load
+
+    scene = load(a.scene, mesh_path=a.mesh_path)
+    start = time.perf_counter()
+    result = render(scene, a.size[0], a.size[1], options=opts, quiet=a.quiet)
+    result.save(a.output, course=a.linear)
+    if depth:
+        result.save_depth(depth[2], depth[0], depth[1])
+    if a.normals:
+        result.save_normals(a.normals)
+    if not a.quiet:
+        print(f"durer: wrote {a.output} ({a.size[0]}x{a.size[1]}, {time.perf_counter() - start:.2f} s)",
+              file=sys.stderr)
+    return 0
+
+
+COMMANDS = {"raycast": run_course, "render": run_render}
+USAGE = ("usage: durer {raycast,render} ...\n"
+         "  durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's flags\n"
+         "  durer render SCENE -o OUT.png [--size W H] [...]          the modern command\n"
+         "`durer COMMAND --help` lists a command's options.")
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv or argv[0] in ("-h", "--help"):
+        print(USAGE, file=sys.stdout if argv else sys.stderr)
+        return 0 if argv else EXIT_USAGE
+    if argv[0] in ("-V", "--version"):
+        from . import __version__
+
+        print(f"durer {__version__}")
+        return 0
+    command = COMMANDS.get(argv[0])
+    if command is None:
+        print(f"{USAGE}\ndurer: error: unknown command {argv[0]!r}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        return command(argv[1:])
+    except UsageError as e:
+        print(str(e), file=sys.stderr)
+        return EXIT_USAGE
+    except DurerError as e:
+        print(str(e), file=sys.stderr)
+        return EXIT_USAGE
+    except (ValueError, OSError) as e:
+        print(f"durer: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("durer: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

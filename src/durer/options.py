@@ -1,0 +1,42 @@
+"""RenderOptions: every switch of a render. The course's flags and the modern ones both map onto these."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+SAMPLERS = ("uniform", "random", "jittered")
+FILTERS = ("box", "tent", "gaussian")
+
+
+@dataclass
+class RenderOptions:
+    """Options of one render; defaults give the lecture's ray caster (one centred ray per pixel, no shadows)."""
+
+    shade_back: bool = False      # light both sides of surfaces (-shade_back); else back faces are black
+    shadows: bool = False         # cast shadow rays to every light (-shadows)
+    bounces: int = 0              # maximum depth of reflection/refraction rays (-bounces)
+    weight: float = 0.01          # stop rays whose contribution falls below this (-weight)
+    samples: int = 1              # samples per pixel
+    sampler: str = "uniform"      # uniform | random | jittered (one centred sample when samples == 1 and uniform)
+    filter: str = "box"           # box | tent | gaussian reconstruction filter
+    filter_radius: float = 0.5    # box/tent radius, or gaussian sigma, in pixels
+    seed: int = 0                 # seed of the random and jittered samplers: same seed, same image
+    grid: tuple[int, int, int] | None = None  # use the course's uniform grid instead of the BVH (-grid)
+    visualize_grid: bool = False  # draw the grid's occupied cells instead of the objects (-visualize_grid)
+    stats: bool = False           # count rays, intersections and grid cells (-stats)
+
+    def validate(self) -> None:
+        if self.bounces < 0:
+            raise ValueError(f"bounces must not be negative, got {self.bounces}")
+        if not self.weight >= 0:
+            raise ValueError(f"weight must not be negative, got {self.weight}")
+        if self.samples < 1:
+            raise ValueError(f"samples must be at least 1, got {self.samples}")
+        if self.sampler not in SAMPLERS:
+            raise ValueError(f"unknown sampler {self.sampler!r} (use one of {', '.join(SAMPLERS)})")
+        if self.filter not in FILTERS:
+            raise ValueError(f"unknown filter {self.filter!r} (use one of {', '.join(FILTERS)})")
+        if not self.filter_radius > 0:
+            raise ValueError(f"filter radius must be positive, got {self.filter_radius}")
+        if self.grid is not None and (len(self.grid) != 3 or min(self.grid) < 1):
+            raise ValueError(f"grid needs three positive cell counts, got {self.grid}")
