@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Union
 
 import numpy as np
 
@@ -32,8 +31,8 @@ class Transform:
             raise ValueError("transform matrix is singular")
 
 
-Object3D = Union[Group, Transform, Sphere, Plane, Triangle, TriangleMesh]
-Light = Union[DirectionalLight, PointLight]
+Object3D = Group | Transform | Sphere | Plane | Triangle | TriangleMesh
+Light = DirectionalLight | PointLight
 
 
 @dataclass
