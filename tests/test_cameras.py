@@ -1,0 +1,104 @@
+"""Camera rays at the corner and centre pixels, basis construction, non-square images."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from durer.cameras import (
+    FisheyeCamera,
+    OrthographicCamera,
+    PanoramaCamera,
+    PerspectiveCamera,
+    orthonormal_basis,
+    pixel_centers,
+)
+
+
+def test_basis_is_orthonormal_from_skewed_up_and_long_direction():
+    d, u, h = orthonormal_basis((0, 0, -5), (0, 3, 1))
+    np.testing.assert_allclose(d, [0, 0, -1])
+    np.testing.assert_allclose(u, [0, 1, 0], atol=1e-15)
+    np.testing.assert_allclose(h, np.cross(d, u))
+    np.testing.assert_allclose(h, [1, 0, 0], atol=1e-15)
+
+
+@pytest.mark.parametrize("up", [(0, 0, 1), (0, 0, -2), (0, 0, 0)])
+def test_up_parallel_to_direction_is_an_error(up):
+    with pytest.raises(ValueError, match="parallel"):
+        orthonormal_basis((0, 0, -1), up)
+
+
+def test_zero_direction_is_an_error():
+    with pytest.raises(ValueError, match="zero length"):
+        orthonormal_basis((0, 0, 0), (0, 1, 0))
+
+
+def test_pixel_centres_row_zero_is_the_top():
+    p = pixel_centers(4, 2)
+    assert p.shape == (2, 4, 2)
+    np.testing.assert_allclose(p[0, 0], [0.5, 1.5])  # top-left pixel
+    np.testing.assert_allclose(p[1, 3], [3.5, 0.5])  # bottom-right pixel
+
+
+def test_orthographic_corner_and_centre_rays():
+    cam = OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -2), up=(0, 1, 0), size=5)
+    # 2x2 image: pixel centres at +-1/4 of the size from the centre
+    o, d, valid = cam.generate_rays(pixel_centers(2, 2).reshape(-1, 2), 2, 2)
+    assert valid.all()
+    np.testing.assert_allclose(d, np.tile([0, 0, -1], (4, 1)))
+    np.testing.assert_allclose(o[0], [-1.25, 1.25, 10])   # top-left
+    np.testing.assert_allclose(o[3], [1.25, -1.25, 10])   # bottom-right
+    # the film corner (0, 0) is center - size*up/2 - size*horizontal/2, as the course specifies
+    o, _, _ = cam.generate_rays(np.array([[0.0, 0.0]]), 2, 2)
+    np.testing.assert_allclose(o[0], [-2.5, -2.5, 10])
+    assert cam.t_min == -np.inf
+
+
+def test_perspective_centre_and_corner_rays():
+    cam = PerspectiveCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), angle=90)
+    o, d, _ = cam.generate_rays(np.array([[1.0, 1.0], [2.0, 2.0], [0.0, 1.0]]), 2, 2)
+    np.testing.assert_allclose(o, np.tile([0, 0, 10], (3, 1)))
+    np.testing.assert_allclose(d[0], [0, 0, -1])                        # image centre
+    np.testing.assert_allclose(d[1], np.array([1, 1, -1]) / np.sqrt(3))  # corner: tan(45 deg) = 1 per axis
+    np.testing.assert_allclose(d[2], np.array([-1, 0, -1]) / np.sqrt(2))  # left edge: the full half-angle
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0)
+    assert cam.t_min == 0.0
+
+
+def test_non_square_images_keep_square_pixels_and_span_the_shorter_side():
+    cam = OrthographicCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), size=2)
+    o, _, _ = cam.generate_rays(pixel_centers(4, 2).reshape(-1, 2), 4, 2)
+    o = o.reshape(2, 4, 3)
+    step_x = o[0, 1, 0] - o[0, 0, 0]
+    step_y = o[0, 0, 1] - o[1, 0, 1]
+    assert step_x == pytest.approx(step_y) == pytest.approx(1.0)  # shorter side (2 px) spans size 2
+    np.testing.assert_allclose(o[0, 0, :2], [-1.5, 0.5])
+
+
+def test_fisheye_centre_edge_and_outside():
+    cam = FisheyeCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), angle=180)
+    _, d, valid = cam.generate_rays(np.array([[5.0, 5.0], [10.0, 5.0], [10.0, 10.0]]), 10, 10)
+    np.testing.assert_allclose(d[0], [0, 0, -1])
+    np.testing.assert_allclose(d[1], [1, 0, 0], atol=1e-12)  # edge of the circle: 90 degrees off axis
+    assert valid.tolist() == [True, True, False]
+
+
+def test_panorama_covers_the_sphere():
+    cam = PanoramaCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0))
+    _, d, _ = cam.generate_rays(np.array([[50.0, 25.0], [75.0, 25.0], [50.0, 50.0]]), 100, 50)
+    np.testing.assert_allclose(d[0], [0, 0, -1], atol=1e-12)  # image centre looks along direction
+    np.testing.assert_allclose(d[1], [1, 0, 0], atol=1e-12)   # a quarter turn right
+    np.testing.assert_allclose(d[2], [0, 1, 0], atol=1e-12)   # top edge looks up
+
+
+@pytest.mark.parametrize("kwargs", [dict(size=0), dict(size=-1)])
+def test_orthographic_size_must_be_positive(kwargs):
+    with pytest.raises(ValueError, match="size"):
+        OrthographicCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), **kwargs)
+
+
+@pytest.mark.parametrize("angle", [0, 180, -10])
+def test_perspective_angle_range(angle):
+    with pytest.raises(ValueError, match="angle"):
+        PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), angle=angle)

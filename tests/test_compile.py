@@ -1,0 +1,78 @@
+"""Transform composition (the course's order), normals by the inverse transpose, flattening of the tree."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from durer import Group, Plane, Scene, Sphere, Transform, Triangle, TriangleMesh
+from durer import transforms as tf
+from durer.cameras import OrthographicCamera
+from durer.compile import compile_scene, sphere_bounds
+
+CAM = OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=1)
+
+
+def test_rotations_are_right_handed_in_degrees():
+    np.testing.assert_allclose(tf.transform_points(tf.z_rotate(90), [[1, 0, 0]]), [[0, 1, 0]], atol=1e-15)
+    np.testing.assert_allclose(tf.transform_points(tf.x_rotate(90), [[0, 1, 0]]), [[0, 0, 1]], atol=1e-15)
+    np.testing.assert_allclose(tf.transform_points(tf.y_rotate(90), [[0, 0, 1]]), [[1, 0, 0]], atol=1e-15)
+    np.testing.assert_allclose(tf.rotate((1, 1, 1), 120)[:3, :3] @ [1, 0, 0], [0, 1, 0], atol=1e-12)
+
+
+def test_composition_last_listed_acts_first():
+    m = tf.compose(tf.translate((5, 0, 0)), tf.scale(2))
+    np.testing.assert_allclose(tf.transform_points(m, [[1, 0, 0]]), [[7, 0, 0]])  # scale, then translate
+    m = tf.compose(tf.scale(2), tf.translate((5, 0, 0)))
+    np.testing.assert_allclose(tf.transform_points(m, [[1, 0, 0]]), [[12, 0, 0]])
+
+
+def test_normals_by_inverse_transpose():
+    m = tf.scale((1, 2, 1))
+    n = tf.transform_normals(m, [[1, 1, 0]])
+    np.testing.assert_allclose(n, [[2 / np.sqrt(5), 1 / np.sqrt(5), 0]])
+
+
+def test_nested_transforms_flatten_into_world_space():
+    tri = Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0), material=0)
+    scene = Scene(camera=CAM, group=Group([Transform(tf.translate((1, 2, 3)), Transform(tf.scale(2), tri))]))
+    cs = compile_scene(scene)
+    np.testing.assert_allclose(cs.triangles[0], [[1, 2, 3], [3, 2, 3], [1, 4, 3]])
+
+
+def test_mirror_transform_keeps_the_inverse_transpose_normal():
+    tri = Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0))
+    cs = compile_scene(Scene(camera=CAM, group=Group([Transform(tf.scale((-1, 1, 1)), tri)])))
+    v = cs.triangles[0]
+    n = np.cross(v[1] - v[0], v[2] - v[0])
+    expected = tf.transform_normals(tf.scale((-1, 1, 1)), [[0, 0, 1]])[0]
+    np.testing.assert_allclose(n / np.linalg.norm(n), expected)
+
+
+def test_transformed_plane_stays_a_plane():
+    plane = Plane((0, 1, 0), 1.0)
+    cs = compile_scene(Scene(camera=CAM, group=Group([Transform(tf.compose(tf.translate((0, 2, 0)),
+                                                                           tf.z_rotate(90)), plane)])))
+    # y = 1 rotated by 90 degrees about z is x = -1, then moved up (no effect on x = -1)
+    np.testing.assert_allclose(cs.plane_normal[0], [-1, 0, 0], atol=1e-12)
+    assert cs.plane_offset[0] == pytest.approx(1.0)
+
+
+def test_mesh_faces_and_materials_flatten():
+    mesh = TriangleMesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]), [[0, 1, 2], [0, 1, 3]], material=1)
+    cs = compile_scene(Scene(camera=CAM, group=Group([mesh, Sphere((0, 0, 0), 1, material=0)])))
+    assert cs.counts == (2, 1, 0)
+    assert cs.triangle_material.tolist() == [1, 1]
+
+
+def test_sphere_bounds_of_a_transformed_sphere():
+    m = tf.compose(tf.translate((1, 0, 0)), tf.scale((2, 1, 1)))
+    cs = compile_scene(Scene(camera=CAM, group=Group([Transform(m, Sphere((0, 0, 0), 1))])))
+    lo, hi = sphere_bounds(cs)
+    np.testing.assert_allclose(lo, [[-1, -1, -1]])
+    np.testing.assert_allclose(hi, [[3, 1, 1]])
+
+
+def test_mesh_face_index_out_of_range_is_a_value_error():
+    with pytest.raises(ValueError, match="out of range"):
+        TriangleMesh(np.zeros((3, 3)), [[0, 1, 3]])
