@@ -1,0 +1,81 @@
+"""The Python API: build a scene with the parser's classes, render it, get arrays back."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import durer
+from durer import DirectionalLight, Group, OrthographicCamera, PerspectiveCamera, PhongMaterial, Plane, Scene, Sphere
+
+
+def simple_scene(**kw):
+    return Scene(
+        camera=OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=4),
+        group=Group([Sphere((0, 0, 0), 1, material=0)]),
+        materials=[PhongMaterial(diffuse_color=(1, 0, 0))],
+        background_color=(0, 0, 1),
+        **kw,
+    )
+
+
+def test_render_result_arrays():
+    r = durer.render(simple_scene(), 8, 6)
+    assert r.color.shape == (6, 8, 3) and r.color.dtype == np.float32
+    assert r.depth.shape == (6, 8) and r.depth.dtype == np.float32
+    assert r.normals.shape == (6, 8, 3) and r.normals.dtype == np.float32
+    assert r.color[3, 4].tolist() == [1, 0, 0]        # flat colour: the scene has no lights
+    assert r.color[0, 0].tolist() == [0, 0, 1]        # background
+    assert r.depth[0, 0] == np.inf and np.isfinite(r.depth[3, 4])
+    assert r.normals[0, 0].tolist() == [0, 0, 0]
+
+
+def test_lambert_and_ambient_closed_form():
+    scene = simple_scene(lights=[DirectionalLight(direction=(0, 0, -1), color=(0.5, 0.5, 0.5))],
+                         ambient_light=(0.2, 0.2, 0.2))
+    r = durer.render(scene, 100, 100)
+    centre = r.color[49:51, 49:51].mean(axis=(0, 1))
+    # at the sphere's front N.L is ~1: 0.2 * kd + 0.5 * kd
+    np.testing.assert_allclose(centre, [0.7, 0, 0], atol=2e-3)
+    n = r.normals[50, 50]
+    assert n[2] == pytest.approx(1.0, abs=1e-3)
+
+
+def test_perspective_depth_is_distance():
+    scene = Scene(camera=PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), angle=90),
+                  group=Group([Plane((0, 0, 1), -5)]), lights=[], materials=[PhongMaterial()])
+    r = durer.render(scene, 3, 3)
+    # the corner ray is (1, 1, -1)/sqrt(3) through the pixel centre at 2/3 of the half-extent: t = 5 |d| / |dz|
+    d = np.array([2 / 3, 2 / 3, -1])
+    assert r.depth[0, 0] == pytest.approx(5 * np.linalg.norm(d), rel=1e-5)
+    assert r.depth[1, 1] == pytest.approx(5.0)
+
+
+def test_back_faces_black_unless_shade_back():
+    scene = simple_scene(lights=[DirectionalLight(direction=(0, 0, -1), color=(1, 1, 1))], ambient_light=(0.5, 0.5, 0.5))
+    scene.camera = PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), angle=60)
+    front = durer.render(scene, 4, 4)
+    assert front.color.max() == 0  # inside the sphere: only back faces
+    both = durer.render(scene, 4, 4, shade_back=True)
+    assert both.color[..., 0].min() > 0.5
+
+
+def test_save_helpers(tmp_path):
+    r = durer.render(simple_scene(), 8, 8)
+    r.save(tmp_path / "c.png")
+    r.save_depth(tmp_path / "d.png", 9, 10)
+    r.save_depth(tmp_path / "d.npy")
+    r.save_normals(tmp_path / "n.pfm")
+    assert np.load(tmp_path / "d.npy")[4, 4] == pytest.approx(r.depth[4, 4])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.png", "d.npy", "d.png", "n.pfm"]
+
+
+@pytest.mark.parametrize("w, h", [(0, 10), (10, -1), (2.5, 3)])
+def test_bad_size(w, h):
+    with pytest.raises(ValueError, match="image size"):
+        durer.render(simple_scene(), w, h)
+
+
+def test_unknown_option():
+    with pytest.raises(TypeError, match="unknown render option"):
+        durer.render(simple_scene(), 4, 4, bounce=2)
