@@ -256,7 +256,7 @@ def run_render(argv: list[str]) -> int:
     return 0
 
 
-COMMANDS = {"raycast": run_course, "render": run_render}
+COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser)}
 USAGE = ("usage: durer {raycast,render} ...\n"
          "  durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's flags\n"
          "  durer render SCENE -o OUT.png [--size W H] [...]          the modern command\n"
@@ -273,14 +273,18 @@ def main(argv: list[str] | None = None) -> int:
 
         print(f"durer {__version__}")
         return 0
-    command = COMMANDS.get(argv[0])
-    if command is None:
+    if argv[0] not in COMMANDS:
         print(f"{USAGE}\ndurer: error: unknown command {argv[0]!r}", file=sys.stderr)
         return EXIT_USAGE
+    command, parser = COMMANDS[argv[0]]
     try:
         return command(argv[1:])
     except UsageError as e:
-        print(str(e), file=sys.stderr)
+        text = str(e)
+        if not text.startswith("usage:"):  # a check made after parsing: give it the same usage line
+            p = parser()
+            text = f"{p.format_usage().strip()}\n{p.prog}: error: {text}"
+        print(text, file=sys.stderr)
         return EXIT_USAGE
     except DurerError as e:
         print(str(e), file=sys.stderr)

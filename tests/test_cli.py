@@ -1,0 +1,142 @@
+"""The `durer` command: course and modern flags, one-line errors with exit status 2, no partial outputs."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from durer.cli import main
+
+SCENE = """\
+OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }
+Background { color 0 0 0 }
+Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }
+Group {
+    numObjects 1
+    MaterialIndex 0
+    Sphere { center 0 0 0 radius 1 }
+}
+"""
+
+
+@pytest.fixture
+def scene(tmp_path):
+    p = tmp_path / "scene.txt"
+    p.write_text(SCENE)
+    return p
+
+
+def run(argv, capsys):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_course_command_writes_all_images(scene, tmp_path, capsys):
+    out, depth, normals = tmp_path / "o.tga", tmp_path / "d.tga", tmp_path / "n.ppm"
+    code, _, err = run(["raycast", "-input", str(scene), "-size", "20", "10", "-output", str(out),
+                        "-depth", "9", "10", str(depth), "-normals", str(normals)], capsys)
+    assert code == 0, err
+    img = np.asarray(Image.open(out))
+    assert img.shape == (10, 20, 3) and img[5, 10].tolist() == [255, 0, 0] and img[0, 0].tolist() == [0, 0, 0]
+    # the pixel centre next to the image centre is 0.25 from the axis: t = 10 - sqrt(1 - 2 * 0.25**2)
+    assert np.asarray(Image.open(depth))[5, 10, 0] == int(np.sqrt(1 - 2 * 0.25**2) * 255)
+    assert np.asarray(Image.open(normals))[5, 10, 2] == int(np.sqrt(1 - 2 * 0.25**2) * 255)
+
+
+def test_course_depth_accepts_negative_numbers(scene, tmp_path, capsys):
+    code, _, err = run(["raycast", "-input", str(scene), "-size", "4", "4", "-depth", "-2", "2", str(tmp_path / "d.png")],
+                       capsys)
+    assert code == 0, err
+
+
+def test_render_command(scene, tmp_path, capsys):
+    out = tmp_path / "o.png"
+    code, _, err = run(["render", str(scene), "-o", str(out), "--size", "16", "8", "--quiet",
+                        "--depth", "9", "10", str(tmp_path / "d.npy"), "--normals", str(tmp_path / "n.npy")], capsys)
+    assert code == 0, err
+    assert np.asarray(Image.open(out)).shape == (8, 16, 3)
+    assert np.load(tmp_path / "d.npy").shape == (8, 16)
+    assert np.load(tmp_path / "n.npy").shape == (8, 16, 3)
+    assert err == ""
+
+
+def test_render_help_documents_every_option(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["render", "--help"])
+    assert e.value.code == 0
+    text = capsys.readouterr().out
+    for option in ("--output", "--size", "--depth", "--normals", "--quiet", "--shadows", "--bounces", "--weight",
+                   "--samples", "--filter", "--seed", "--shade-back", "--mesh-path", "--linear"):
+        assert option in text
+
+
+BAD_FLAGS = [
+    ["raycast", "-size", "10", "10", "-output", "x.tga"],                          # no -input
+    ["raycast", "-input", "SCENE", "-size", "10", "-output", "x.tga"],             # -size needs two numbers
+    ["raycast", "-input", "SCENE", "-size", "10", "0", "-output", "x.tga"],        # zero height
+    ["raycast", "-input", "SCENE", "-size", "a", "10", "-output", "x.tga"],
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bogus"],
+    ["raycast", "-input", "SCENE", "-size", "10", "10"],                            # nothing to write
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.jpeg"],      # unknown format
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "nodir/x.tga"],  # missing folder
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-depth", "1", "x", "d.tga"],
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bounces", "-1"],
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-visualize_grid"],
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-box_filter", "1", "-tent_filter", "1"],
+    ["render", "SCENE"],                                                            # no -o
+    ["render", "SCENE", "-o", "x.png", "--filter", "sinc"],
+    ["render", "SCENE", "-o", "x.png", "--filter", "gaussian:-1"],
+    ["render", "SCENE", "-o", "x.png", "--size", "10"],
+    ["frobnicate"],
+    [],
+]
+
+
+@pytest.mark.parametrize("argv", BAD_FLAGS, ids=[" ".join(a[1:]) or "(none)" for a in BAD_FLAGS])
+def test_bad_flags_exit_2_with_one_message(argv, scene, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    argv = [str(scene) if a == "SCENE" else a for a in argv]
+    code, _, err = run(argv, capsys)
+    assert code == 2
+    assert "Traceback" not in err and err.strip()
+    if argv and argv[0] in ("raycast", "render"):
+        usage, message = err.rstrip("\n").split("\n")
+        assert usage.startswith(f"usage: durer {argv[0]} ")
+        assert message.startswith(f"durer {argv[0]}: error: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.txt"]  # nothing written
+
+
+def test_bad_scene_is_one_line_and_existing_output_untouched(scene, tmp_path, capsys):
+    scene.write_text(SCENE.replace("radius 1", "radius -1"))
+    out = tmp_path / "o.tga"
+    out.write_bytes(b"previous render")
+    code, _, err = run(["raycast", "-input", str(scene), "-size", "10", "10", "-output", str(out)], capsys)
+    assert code == 2
+    assert err == f"{scene}:7: sphere radius must be positive, got -1\n"
+    assert out.read_bytes() == b"previous render"
+
+
+def test_real_process_exit_code_and_no_traceback(scene, tmp_path):
+    scene.write_text(SCENE.replace("numObjects 1", "numObjects x"))
+    p = subprocess.run([sys.executable, "-m", "durer", "raycast", "-input", str(scene), "-size", "4", "4",
+                        "-output", str(tmp_path / "o.tga")], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2
+    assert p.stderr == f"{scene}:5: expected an integer for numObjects, got 'x'\n"
+    assert not (tmp_path / "o.tga").exists()
+
+
+def test_gui_flags_are_accepted_and_ignored(scene, tmp_path, capsys):
+    code, _, err = run(["raycast", "-input", str(scene), "-size", "4", "4", "-output", str(tmp_path / "o.tga"),
+                        "-gui", "-tessellation", "10", "5", "-gouraud"], capsys)
+    assert code == 0
+    assert err.count("\n") == 1 and "ignored" in err
+
+
+def test_version(capsys):
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("durer ")
