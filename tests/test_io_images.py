@@ -89,3 +89,12 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
         write_atomic(str(target), fail)
     assert target.read_bytes() == b"old"
     assert [p.name for p in tmp_path.iterdir()] == ["out.png"]
+
+
+def test_written_files_get_the_usual_permissions(tmp_path):
+    import os
+
+    save_image(str(tmp_path / "x.png"), np.zeros((1, 1, 3)))
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (tmp_path / "x.png").stat().st_mode & 0o777 == 0o666 & ~mask

@@ -122,14 +122,25 @@ def main() -> int:
                 print(f"A{line.assignment} {Path(name).stem:28s} {frac * 100:7.2f}%  mean {mad:6.3f}  max {mx:3d}"
                       f"  {secs:5.2f}s", file=sys.stderr)
     if a.markdown:
-        print("| assignment | image | pixels within 2/255 | mean abs. diff (/255) | max diff |")
-        print("|---|---|---|---|---|")
-        for asg, name, frac, mad, mx, _, err in rows:
-            if frac is None:
-                print(f"| {asg} | {name} | failed: {err} | | |")
-            else:
-                print(f"| {asg} | {name} | {frac * 100:.2f}% | {mad:.3f} | {mx} |")
+        print(markdown(rows))
     return 0
+
+
+def markdown(rows: list[tuple]) -> str:
+    """A per-assignment summary, then one row per image."""
+    out = ["| assignment | images | all pixels within 2/255 | at least 99% | lowest |", "|---|---|---|---|---|"]
+    for asg in sorted({r[0] for r in rows}):
+        fr = [r[2] if r[2] is not None else 0.0 for r in rows if r[0] == asg]
+        out.append(f"| {asg} | {len(fr)} | {sum(f == 1.0 for f in fr)} | {sum(f >= 0.99 for f in fr)} "
+                   f"| {min(fr) * 100:.2f}% |")
+    out += ["", "| assignment | image | pixels within 2/255 | mean abs. diff (/255) | max diff |",
+            "|---|---|---|---|---|"]
+    for asg, name, frac, mad, mx, _, err in rows:
+        if frac is None:
+            out.append(f"| {asg} | {name} | failed: {err} | | |")
+        else:
+            out.append(f"| {asg} | {name} | {frac * 100:.2f}% | {mad:.3f} | {mx} |")
+    return "\n".join(out)
 
 
 if __name__ == "__main__":

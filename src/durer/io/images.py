@@ -61,6 +61,12 @@ def _write_pfm(f, data: np.ndarray) -> None:
     f.write(np.ascontiguousarray(data[::-1]).tobytes())  # PFM rows run bottom to top
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(path: str, write) -> None:
     """Call write(file) on a temporary file beside `path`, then rename it into place: never a half-written file."""
     directory = os.path.dirname(os.path.abspath(path))
@@ -68,6 +74,7 @@ def write_atomic(path: str, write) -> None:
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600 files; give the usual permissions
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
