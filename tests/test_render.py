@@ -79,3 +79,20 @@ def test_bad_size(w, h):
 def test_unknown_option():
     with pytest.raises(TypeError, match="unknown render option"):
         durer.render(simple_scene(), 4, 4, bounce=2)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: Sphere((np.nan, 0, 0), 1),
+    lambda: Sphere((0, 0, 0), np.inf),
+    lambda: Plane((0, 1, 0), np.nan),
+    lambda: durer.Triangle((0, 0, 0), (1, np.inf, 0), (0, 1, 0)),
+    lambda: durer.TriangleMesh(np.array([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]]), [[0, 1, 2]]),
+    lambda: OrthographicCamera(center=(np.nan, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), size=1),
+    lambda: PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, np.nan), up=(0, 1, 0), angle=30),
+    lambda: DirectionalLight(direction=(0, np.nan, -1)),
+    lambda: durer.PointLight(position=(0, 0, 0), attenuation=(0, 0, 0)),
+    lambda: durer.Transform(np.full((4, 4), np.nan), Sphere((0, 0, 0), 1)),
+])
+def test_nan_and_infinity_in_scene_objects_are_value_errors(make):
+    with pytest.raises(ValueError):
+        make()

@@ -19,6 +19,8 @@ def orthonormal_basis(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray
     """
     d = np.asarray(direction, dtype=np.float64).reshape(3)
     u = np.asarray(up, dtype=np.float64).reshape(3)
+    if not (np.isfinite(d).all() and np.isfinite(u).all()):
+        raise ValueError("camera direction and up must be finite")
     dn = np.linalg.norm(d)
     if not dn > 0:
         raise ValueError("camera direction has zero length")
@@ -30,6 +32,13 @@ def orthonormal_basis(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray
     u = u / un
     h = np.cross(d, u)
     return d, u, h
+
+
+def _finite_point(p) -> np.ndarray:
+    a = np.asarray(p, dtype=np.float64).reshape(3)
+    if not np.isfinite(a).all():
+        raise ValueError(f"camera center must be finite, got {a.tolist()}")
+    return a
 
 
 def _film_offsets(points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -61,7 +70,7 @@ class OrthographicCamera:
     t_min = -np.inf
 
     def __post_init__(self):
-        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.center = _finite_point(self.center)
         self.size = float(self.size)
         if not self.size > 0:
             raise ValueError(f"camera size must be positive, got {self.size}")
@@ -90,7 +99,7 @@ class PerspectiveCamera:
     t_min = 0.0
 
     def __post_init__(self):
-        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.center = _finite_point(self.center)
         self.angle = float(self.angle)
         if not 0 < self.angle < 180:
             raise ValueError(f"camera angle must be between 0 and 180 degrees, got {self.angle}")
@@ -119,7 +128,7 @@ class FisheyeCamera:
     t_min = 0.0
 
     def __post_init__(self):
-        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.center = _finite_point(self.center)
         self.angle = float(self.angle)
         if not 0 < self.angle <= 360:
             raise ValueError(f"fisheye angle must be in (0, 360] degrees, got {self.angle}")
@@ -149,7 +158,7 @@ class PanoramaCamera:
     t_min = 0.0
 
     def __post_init__(self):
-        self.center = np.asarray(self.center, dtype=np.float64).reshape(3)
+        self.center = _finite_point(self.center)
         self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
 
     def generate_rays(self, points: np.ndarray, width: int, height: int):

@@ -18,6 +18,8 @@ class DirectionalLight:
         self.direction = np.asarray(self.direction, dtype=np.float64).reshape(3)
         self.color = np.asarray(self.color, dtype=np.float64).reshape(3)
         n = np.linalg.norm(self.direction)
+        if not (np.isfinite(self.direction).all() and np.isfinite(self.color).all()):
+            raise ValueError("light direction and colour must be finite")
         if not n > 0:
             raise ValueError("light direction has zero length")
         self.direction = self.direction / n
@@ -35,3 +37,8 @@ class PointLight:
         self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
         self.color = np.asarray(self.color, dtype=np.float64).reshape(3)
         self.attenuation = tuple(float(a) for a in self.attenuation)
+        if not (np.isfinite(self.position).all() and np.isfinite(self.color).all()
+                and np.isfinite(self.attenuation).all()):
+            raise ValueError("light position, colour and attenuation must be finite")
+        if len(self.attenuation) != 3 or min(self.attenuation) < 0 or sum(self.attenuation) <= 0:
+            raise ValueError("attenuation needs three non-negative coefficients, not all zero")

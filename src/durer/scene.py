@@ -27,6 +27,8 @@ class Transform:
 
     def __post_init__(self):
         self.matrix = np.asarray(self.matrix, dtype=np.float64).reshape(4, 4)
+        if not np.isfinite(self.matrix).all():
+            raise ValueError("transform matrix must be finite")
         if abs(np.linalg.det(self.matrix[:3, :3])) < 1e-300:
             raise ValueError("transform matrix is singular")
 

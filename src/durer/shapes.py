@@ -7,8 +7,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
-def _vec3(v) -> np.ndarray:
-    a = np.asarray(v, dtype=np.float64).reshape(3)
+def _vec3(v, what: str = "vector") -> np.ndarray:
+    """A finite float64 3-vector, or a ValueError naming what was wrong."""
+    try:
+        a = np.asarray(v, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be three numbers, got {v!r}") from None
+    if not np.isfinite(a).all():
+        raise ValueError(f"{what} must be finite, got {a.tolist()}")
     return a
 
 
@@ -21,9 +27,9 @@ class Sphere:
     material: int = 0
 
     def __post_init__(self):
-        self.center = _vec3(self.center)
+        self.center = _vec3(self.center, "sphere center")
         self.radius = float(self.radius)
-        if not self.radius > 0:
+        if not (self.radius > 0 and np.isfinite(self.radius)):
             raise ValueError(f"sphere radius must be positive, got {self.radius}")
 
 
@@ -36,8 +42,10 @@ class Plane:
     material: int = 0
 
     def __post_init__(self):
-        self.normal = _vec3(self.normal)
+        self.normal = _vec3(self.normal, "plane normal")
         self.offset = float(self.offset)
+        if not np.isfinite(self.offset):
+            raise ValueError(f"plane offset must be finite, got {self.offset}")
         if not np.linalg.norm(self.normal) > 0:
             raise ValueError("plane normal has zero length")
 
@@ -52,7 +60,8 @@ class Triangle:
     material: int = 0
 
     def __post_init__(self):
-        self.vertex0, self.vertex1, self.vertex2 = (_vec3(v) for v in (self.vertex0, self.vertex1, self.vertex2))
+        self.vertex0, self.vertex1, self.vertex2 = (
+            _vec3(v, f"triangle vertex{i}") for i, v in enumerate((self.vertex0, self.vertex1, self.vertex2)))
 
 
 @dataclass
@@ -67,6 +76,8 @@ class TriangleMesh:
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
         self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
+        if not np.isfinite(self.vertices).all():
+            raise ValueError("mesh vertices must be finite (found NaN or infinity)")
         if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= len(self.vertices)):
             raise ValueError(
                 f"face index out of range: mesh has {len(self.vertices)} vertices, "
