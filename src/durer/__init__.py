@@ -13,6 +13,7 @@ from .cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, Perspect
 from .errors import DurerError, SceneError, UsageError
 from .lights import DirectionalLight, PointLight
 from .materials import Material, PhongMaterial
+from .query import RaycastingScene
 from .render import RenderResult, render
 from .scene import Group, Scene, Transform
 from .shapes import Plane, Sphere, Triangle, TriangleMesh
@@ -32,6 +33,6 @@ def load(path: str | os.PathLike, mesh_path: list[str] | None = None) -> Scene:
 __all__ = [
     "Checkerboard", "DirectionalLight", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
     "OrthographicCamera", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight",
-    "RenderResult", "Scene", "SceneError", "Sphere", "Transform", "Triangle", "TriangleMesh", "UsageError", "Wood",
-    "load", "render",
+    "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "Transform", "Triangle", "TriangleMesh",
+    "UsageError", "Wood", "load", "render",
 ]

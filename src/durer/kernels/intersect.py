@@ -54,33 +54,71 @@ def intersect_plane(ox, oy, oz, dx, dy, dz, nx, ny, nz, offset, t_min, t_max):
     return INF
 
 
-@nb.njit(cache=True, inline="always")
-def intersect_triangle(ox, oy, oz, dx, dy, dz, tri, t_min, t_max):
-    """Moller-Trumbore: (t, u, v) of the hit with barycentrics u, v (weights of vertex1, vertex2), or t = inf."""
-    ax, ay, az = tri[0, 0], tri[0, 1], tri[0, 2]
-    e1x, e1y, e1z = tri[1, 0] - ax, tri[1, 1] - ay, tri[1, 2] - az
-    e2x, e2y, e2z = tri[2, 0] - ax, tri[2, 1] - ay, tri[2, 2] - az
-    px = dy * e2z - dz * e2y
-    py = dz * e2x - dx * e2z
-    pz = dx * e2y - dy * e2x
-    det = e1x * px + e1y * py + e1z * pz
+@nb.njit(cache=True, inline="always", error_model="numpy")
+def ray_shear(dx, dy, dz):
+    """Per-ray constants of the watertight test: the axis permutation (kx, ky, kz) that makes z the direction's
+    largest component (x, y swapped when it is negative, keeping the winding), and the shear sx, sy, sz that maps
+    the direction onto (0, 0, 1)."""
+    ax, ay, az = abs(dx), abs(dy), abs(dz)
+    if ax >= ay and ax >= az:
+        kz = 0
+    elif ay >= az:
+        kz = 1
+    else:
+        kz = 2
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    d = (dx, dy, dz)
+    dkz = d[kz]
+    if dkz < 0.0:
+        kx, ky = ky, kx
+    return kx, ky, kz, d[kx] / dkz, d[ky] / dkz, 1.0 / dkz
+
+
+@nb.njit(cache=True, inline="always", error_model="numpy")
+def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max):
+    """Woop, Benthin & Wald (2013): (t, u, v) of the hit, u, v the weights of vertex1 and vertex2, or t = inf.
+
+    tri[base:base + 9] holds the vertices (v0 xyz, v1 xyz, v2 xyz); okx, oky, okz are the ray origin's
+    coordinates permuted by ray_shear.
+    Each vertex is moved into the ray's sheared frame on its own, so two triangles sharing an edge compute that
+    edge's 2D edge function from identical numbers with exactly opposite sign: a ray can fall on the edge (and
+    hit both), never between. Both sides count; edge-on and degenerate triangles (determinant 0) are missed.
+    No fused multiply-add (fastmath is off), which would break that symmetry.
+    """
+    az = tri[base + kz] - okz
+    bz = tri[base + 3 + kz] - okz
+    cz = tri[base + 6 + kz] - okz
+    ax = (tri[base + kx] - okx) - sx * az
+    ay = (tri[base + ky] - oky) - sy * az
+    bx = (tri[base + 3 + kx] - okx) - sx * bz
+    by = (tri[base + 3 + ky] - oky) - sy * bz
+    cx = (tri[base + 6 + kx] - okx) - sx * cz
+    cy = (tri[base + 6 + ky] - oky) - sy * cz
+    e0 = cx * by - cy * bx
+    e1 = ax * cy - ay * cx
+    e2 = bx * ay - by * ax
+    if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
+        return INF, 0.0, 0.0
+    det = e0 + e1 + e2
     if det == 0.0:
         return INF, 0.0, 0.0
-    inv = 1.0 / det
-    sx, sy, sz = ox - ax, oy - ay, oz - az
-    u = (sx * px + sy * py + sz * pz) * inv
-    if u < 0.0 or u > 1.0:
-        return INF, 0.0, 0.0
-    qx = sy * e1z - sz * e1y
-    qy = sz * e1x - sx * e1z
-    qz = sx * e1y - sy * e1x
-    v = (dx * qx + dy * qy + dz * qz) * inv
-    if v < 0.0 or u + v > 1.0:
-        return INF, 0.0, 0.0
-    t = (e2x * qx + e2y * qy + e2z * qz) * inv
+    t = sz * (e0 * az + e1 * bz + e2 * cz) / det
     if t_min < t < t_max:
-        return t, u, v
+        return t, e1 / det, e2 / det
     return INF, 0.0, 0.0
+
+
+@nb.njit(cache=True, inline="always", error_model="numpy")
+def intersect_triangle(ox, oy, oz, dx, dy, dz, tri, t_min, t_max):
+    """Watertight ray-triangle test for one (3, 3) triangle: (t, u, v), u, v the weights of vertex1, vertex2.
+
+    Convenience form of watertight_triangle that derives the per-ray constants itself; the BVH computes them
+    once per ray and calls watertight_triangle directly, so both give bit-identical results.
+    """
+    kx, ky, kz, sx, sy, sz = ray_shear(dx, dy, dz)
+    o = (ox, oy, oz)
+    return watertight_triangle(tri.reshape(9), 0, o[kx], o[ky], o[kz], kx, ky, kz, sx, sy, sz, t_min, t_max)
 
 
 @nb.njit(cache=True, inline="always")

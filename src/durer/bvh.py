@@ -1,0 +1,95 @@
+"""BVHAccelerator: the BruteForce interface (closest_hit, any_hit -> Hits) answered through a 4-wide SAH BVH.
+
+Triangles and spheres (ellipsoids under a transform) share one tree; planes are unbounded, so the kernels test
+them beside it. Results match BruteForce: both call the same per-primitive tests (the watertight triangle test
+of kernels/intersect.py), so t agrees to the bit and only exact ties may name a different primitive.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .compile import CompiledScene, sphere_bounds
+from .hits import Hits, _per_ray
+from .kernels.bvh import MAX_LEAF, any_hit_bvh, build_wide_bvh, closest_hit_bvh, stack_size_for
+
+
+@dataclass
+class WideBVH:
+    """One 4-wide tree and its leaf-ordered items (see kernels/bvh.py for the layout)."""
+
+    bounds: np.ndarray     # (N, 6, 4) float32
+    child: np.ndarray      # (N, 4) int32
+    leaf_prim: np.ndarray  # (M,) int32: triangle id, or -(sphere + 1)
+    leaf_tri: np.ndarray   # (M, 9) float64 triangle vertices in leaf order
+    depth: int
+
+    @property
+    def nbytes(self) -> int:
+        return self.bounds.nbytes + self.child.nbytes + self.leaf_prim.nbytes + self.leaf_tri.nbytes
+
+    @property
+    def stack_size(self) -> int:
+        return stack_size_for(self.depth)
+
+
+def build_tree(triangles: np.ndarray, sphere_lo: np.ndarray, sphere_hi: np.ndarray,
+               max_leaf: int = MAX_LEAF) -> WideBVH:
+    """Build the tree over triangles (F, 3, 3) and sphere boxes (S, 3); item ids: triangles 0..F-1, then spheres."""
+    f = len(triangles)
+    tris = np.ascontiguousarray(triangles, dtype=np.float64).reshape(f, 9)
+    lo = np.concatenate([triangles.min(axis=1), sphere_lo]) if f else np.asarray(sphere_lo, np.float64)
+    hi = np.concatenate([triangles.max(axis=1), sphere_hi]) if f else np.asarray(sphere_hi, np.float64)
+    bounds, child, order, depth = build_wide_bvh(lo.reshape(-1, 3), hi.reshape(-1, 3), max_leaf)
+    is_tri = order < f
+    leaf_prim = np.where(is_tri, order, -(order - f) - 1).astype(np.int32)
+    leaf_tri = np.zeros((len(order), 9))
+    if f:
+        leaf_tri[is_tri] = tris[order[is_tri]]
+    return WideBVH(bounds, child, leaf_prim, leaf_tri, depth)
+
+
+class BVHAccelerator:
+    """Drop-in replacement for hits.BruteForce: closest_hit / any_hit with the same Hits semantics.
+
+    t_min / t_max are scalars or per-ray arrays; t_min = -inf (orthographic cameras) works.
+    `build_seconds` and `nbytes` report the build's cost.
+    """
+
+    name = "bvh"
+
+    def __init__(self, cs: CompiledScene, max_leaf: int = MAX_LEAF):
+        self.cs = cs
+        start = time.perf_counter()
+        slo, shi = sphere_bounds(cs)
+        self.tree = build_tree(cs.triangles, slo, shi, max_leaf)
+        self.build_seconds = time.perf_counter() - start
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the acceleration structure (nodes and leaf-ordered triangles)."""
+        return self.tree.nbytes
+
+    def _args(self):
+        cs, tr = self.cs, self.tree
+        return (tr.bounds.reshape(-1), tr.child, tr.leaf_prim, tr.leaf_tri.reshape(-1), cs.sphere_center,
+                cs.sphere_radius, cs.sphere_world_to_object, cs.plane_normal, cs.plane_offset, tr.stack_size)
+
+    def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> Hits:
+        n = len(origins)
+        h = Hits.empty(n)
+        closest_hit_bvh(np.ascontiguousarray(origins, dtype=np.float64),
+                        np.ascontiguousarray(directions, dtype=np.float64),
+                        _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), h.t, h.kind, h.prim, h.u, h.v)
+        return h
+
+    def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> np.ndarray:
+        n = len(origins)
+        out = np.empty(n, dtype=np.bool_)
+        any_hit_bvh(np.ascontiguousarray(origins, dtype=np.float64),
+                    np.ascontiguousarray(directions, dtype=np.float64),
+                    _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), out)
+        return out

@@ -1,0 +1,570 @@
+"""Bounding volume hierarchy: binned-SAH build and closest/any/all-hit traversal (Numba).
+
+Layout (measured fastest of the variants tried, see benchmarks/README.md): a 4-wide BVH whose nodes hold their
+children's boxes, float32, structure of arrays, so one node visit tests four boxes from one 96-byte block:
+
+    bounds[node, row, lane]  float32 (N, 6, 4), rows = lo x, lo y, lo z, hi x, hi y, hi z (rounded outwards)
+    child[node, lane]        int32   (N, 4):  > 0 inner node, 0 empty slot (its box sits at +inf),
+                                              < 0 leaf = -(start * 8 + count) - 1
+
+Node 0 is the root of the first tree, so 0 never names a child. A leaf's items are slots start..start+count of
+the leaf arrays, stored in leaf order so a leaf reads one contiguous block:
+
+    leaf_prim[slot]  int32: >= 0 triangle id, < 0 sphere -(s + 1) into the sphere arrays
+    leaf_tri[slot]   float64 (9,): the triangle's vertices (unused for spheres)
+
+Boxes are float32 to halve the traversal's memory traffic; the slab test itself runs in float64 against boxes
+rounded outwards, with the far distance widened by a few ulps (Ize 2013), so rounding never culls a real hit.
+Several trees (one per mesh) can share these arrays; a second, top-level tree over instances then gives the
+two-level BVH of `query.py`: a mesh used twice is stored once.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .intersect import ray_shear, sphere_hit_in_object_space, watertight_triangle
+
+TRIANGLE, SPHERE = 1, 2
+MAX_LEAF = 4          # items per leaf (the build may go up to 7 when all centroids coincide)
+N_BINS = 16           # SAH bins per axis
+TRAVERSAL_COST = 1.0  # SAH: cost of one node visit relative to one primitive test
+FAR_WIDEN = 1e-15     # relative widening of the slab test's far distance: covers float64 rounding
+RAY_CHUNK = 64        # rays per parallel work item: neighbouring (coherent) rays share a thread's cache
+
+JIT = dict(cache=True, error_model="numpy", nogil=True)
+
+
+# ----------------------------------------------------------------------------------------------------------- build
+
+@nb.njit(**JIT)
+def _area(lx, ly, lz, hx, hy, hz):
+    ex, ey, ez = hx - lx, hy - ly, hz - lz
+    if ex < 0.0:
+        return 0.0
+    return ex * ey + ey * ez + ez * ex
+
+
+@nb.njit(**JIT)
+def build_bvh2(lo, hi, max_leaf):
+    """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays and the item order.
+
+    Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
+    Each node bins its items' centroids into N_BINS per axis, sweeps the bins for the cheapest SAH split, and
+    becomes a leaf when that is cheaper (and it holds at most max_leaf items) or no split separates centroids.
+    """
+    n = lo.shape[0]
+    cap = max(2 * n, 1)
+    box = np.empty((cap, 6))
+    left = np.full(cap, -1, np.int32)
+    right = np.full(cap, -1, np.int32)
+    start = np.zeros(cap, np.int32)
+    count = np.zeros(cap, np.int32)
+    order = np.arange(n).astype(np.int32)
+    cen = np.empty((n, 3))
+    for i in range(n):
+        for a in range(3):
+            cen[i, a] = 0.5 * (lo[i, a] + hi[i, a])
+
+    bin_box = np.empty((3, N_BINS, 6))
+    bin_cnt = np.zeros((3, N_BINS), np.int64)
+    right_area = np.empty(N_BINS)
+    right_cnt = np.empty(N_BINS, np.int64)
+    stack = np.empty((128, 3), np.int64)   # node, first, end; depth-first keeps the stack at the tree depth
+    sp = 0
+    m = 1
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        node, first, end = stack[sp, 0], stack[sp, 1], stack[sp, 2]
+        cnt = end - first
+        # bounds of the items and of their centroids
+        bl = np.full(3, np.inf)
+        bh = np.full(3, -np.inf)
+        cl = np.full(3, np.inf)
+        ch = np.full(3, -np.inf)
+        for j in range(first, end):
+            p = order[j]
+            for a in range(3):
+                if lo[p, a] < bl[a]:
+                    bl[a] = lo[p, a]
+                if hi[p, a] > bh[a]:
+                    bh[a] = hi[p, a]
+                c = cen[p, a]
+                if c < cl[a]:
+                    cl[a] = c
+                if c > ch[a]:
+                    ch[a] = c
+        for a in range(3):
+            box[node, a] = bl[a]
+            box[node, 3 + a] = bh[a]
+        start[node] = first
+        count[node] = cnt
+        if cnt <= 1:
+            continue
+        # bin centroids on all three axes in one pass
+        bin_cnt[:, :] = 0
+        for a in range(3):
+            for b in range(N_BINS):
+                bin_box[a, b, 0:3] = np.inf
+                bin_box[a, b, 3:6] = -np.inf
+        scale = np.zeros(3)
+        for a in range(3):
+            ext = ch[a] - cl[a]
+            if ext > 0.0:
+                scale[a] = N_BINS * (1.0 - 1e-9) / ext
+        for j in range(first, end):
+            p = order[j]
+            for a in range(3):
+                if scale[a] == 0.0:
+                    continue
+                b = int((cen[p, a] - cl[a]) * scale[a])
+                if b >= N_BINS:
+                    b = N_BINS - 1
+                bin_cnt[a, b] += 1
+                bb = bin_box[a, b]
+                for k in range(3):
+                    if lo[p, k] < bb[k]:
+                        bb[k] = lo[p, k]
+                    if hi[p, k] > bb[3 + k]:
+                        bb[3 + k] = hi[p, k]
+        # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the N_BINS-1 planes
+        best_cost = np.inf
+        best_axis = -1
+        best_bin = 0
+        for a in range(3):
+            if scale[a] == 0.0:
+                continue
+            rl0 = rl1 = rl2 = np.inf
+            rh0 = rh1 = rh2 = -np.inf
+            rc = 0
+            for b in range(N_BINS - 1, 0, -1):
+                bb = bin_box[a, b]
+                rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
+                rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
+                rc += bin_cnt[a, b]
+                right_area[b] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
+                right_cnt[b] = rc
+            ll0 = ll1 = ll2 = np.inf
+            lh0 = lh1 = lh2 = -np.inf
+            lc = 0
+            for b in range(N_BINS - 1):
+                bb = bin_box[a, b]
+                ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
+                lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
+                lc += bin_cnt[a, b]
+                if lc == 0 or right_cnt[b + 1] == 0:
+                    continue
+                cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[b + 1] * right_cnt[b + 1]
+                if cost < best_cost:
+                    best_cost, best_axis, best_bin = cost, a, b
+        parent_area = _area(bl[0], bl[1], bl[2], bh[0], bh[1], bh[2])
+        leaf_cost = parent_area * cnt
+        split_cost = parent_area * TRAVERSAL_COST + best_cost
+        if best_axis < 0:
+            if cnt <= 7:
+                continue  # coincident centroids: no plane separates them
+            mid = first + cnt // 2  # too many to keep together: split the list in half
+        else:
+            if cnt <= max_leaf and leaf_cost <= split_cost:
+                continue
+            # partition order[first:end] by bin
+            a = best_axis
+            i = first
+            k = end - 1
+            while i <= k:
+                b = int((cen[order[i], a] - cl[a]) * scale[a])
+                if b >= N_BINS:
+                    b = N_BINS - 1
+                if b <= best_bin:
+                    i += 1
+                else:
+                    order[i], order[k] = order[k], order[i]
+                    k -= 1
+            mid = i
+        l, r = m, m + 1
+        m += 2
+        left[node], right[node] = l, r
+        if sp + 2 > stack.shape[0]:
+            grown = np.empty((2 * stack.shape[0], 3), np.int64)
+            grown[:sp] = stack[:sp]
+            stack = grown
+        stack[sp, 0], stack[sp, 1], stack[sp, 2] = r, mid, end
+        stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = l, first, mid
+        sp += 2
+    return box[:m], left[:m], right[:m], start[:m], count[:m], order
+
+
+@nb.njit(**JIT)
+def collapse_bvh4(box, left, right, start, count):
+    """Turn a binary BVH into the 4-wide layout described at the top: each wide node takes up to four
+    grandchildren, opening the largest-area inner child first. Returns bounds, child and the tree depth."""
+    m = box.shape[0]
+    bounds = np.empty((max(m, 1), 6, 4), np.float32)
+    child = np.zeros((max(m, 1), 4), np.int32)
+    src = np.empty(max(m, 1), np.int64)    # the binary node each wide node was made from
+    depth = np.zeros(max(m, 1), np.int64)
+    src[0] = 0
+    nw = 1
+    max_depth = 1
+    slots = np.empty(4, np.int64)
+    w = 0
+    while w < nw:
+        s = src[w]
+        ns = 0
+        if m == 0:
+            pass
+        elif left[s] < 0:       # a tree that is a single leaf: the root holds it in lane 0
+            slots[0] = s
+            ns = 1
+        else:
+            slots[0], slots[1] = left[s], right[s]
+            ns = 2
+            while ns < 4:
+                best = -1
+                best_area = -1.0
+                for k in range(ns):
+                    q = slots[k]
+                    if left[q] >= 0:
+                        ar = _area(box[q, 0], box[q, 1], box[q, 2], box[q, 3], box[q, 4], box[q, 5])
+                        if ar > best_area:
+                            best_area, best = ar, k
+                if best < 0:
+                    break
+                q = slots[best]
+                slots[best] = left[q]
+                slots[ns] = right[q]
+                ns += 1
+        for lane in range(4):
+            if lane < ns:
+                q = slots[lane]
+                if count[q] == 0:  # an empty tree's root
+                    for a in range(6):
+                        bounds[w, a, lane] = np.inf
+                    child[w, lane] = 0
+                    continue
+                for a in range(3):
+                    bounds[w, a, lane] = np.nextafter(np.float32(box[q, a]), np.float32(-np.inf))
+                    bounds[w, 3 + a, lane] = np.nextafter(np.float32(box[q, 3 + a]), np.float32(np.inf))
+                if left[q] < 0:
+                    child[w, lane] = -(start[q] * 8 + count[q]) - 1
+                else:
+                    child[w, lane] = nw
+                    src[nw] = q
+                    depth[nw] = depth[w] + 1
+                    if depth[nw] + 1 > max_depth:
+                        max_depth = depth[nw] + 1
+                    nw += 1
+            else:
+                for a in range(6):
+                    bounds[w, a, lane] = np.inf  # a box at infinity: every slab test misses it
+                child[w, lane] = 0
+        w += 1
+    return bounds[:nw].copy(), child[:nw].copy(), max_depth
+
+
+# ------------------------------------------------------------------------------------------------------- traversal
+
+@nb.njit(**JIT, inline="always")
+def ray_setup(ox, oy, oz, dx, dy, dz):
+    """Per-ray constants: reciprocal direction and near-plane row offsets for the slab tests (by direction
+    sign), and the shear of the triangle test. A zero direction component becomes 1e-300 for the slabs only,
+    so (lo - o) / d is never 0 * inf = NaN."""
+    idx = 1.0 / (dx if dx != 0.0 else 1e-300)
+    idy = 1.0 / (dy if dy != 0.0 else 1e-300)
+    idz = 1.0 / (dz if dz != 0.0 else 1e-300)
+    nrx = 0 if idx >= 0.0 else 12
+    nry = 4 if idy >= 0.0 else 16
+    nrz = 8 if idz >= 0.0 else 20
+    kx, ky, kz, sx, sy, sz = ray_shear(dx, dy, dz)
+    o = (ox, oy, oz)
+    return idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, o[kx], o[ky], o[kz]
+
+
+@nb.njit(**JIT, inline="always")
+def _lane(bounds, base, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi):
+    """Entry distance into the box at flat offset `base` (a lane of a node), or inf if it misses [t_lo, t_hi].
+    The near plane of each slab is picked by the direction's sign, so no min/max per slab is needed."""
+    tn = t_lo
+    tf = t_hi
+    a = (bounds[base + nrx] - ox) * idx
+    b = (bounds[base + 12 - nrx] - ox) * idx
+    tn = a if a > tn else tn
+    tf = b if b < tf else tf
+    a = (bounds[base + nry] - oy) * idy
+    b = (bounds[base + 20 - nry] - oy) * idy
+    tn = a if a > tn else tn
+    tf = b if b < tf else tf
+    a = (bounds[base + nrz] - oz) * idz
+    b = (bounds[base + 28 - nrz] - oz) * idz
+    tn = a if a > tn else tn
+    tf = b if b < tf else tf
+    return tn if tn <= tf + abs(tf) * FAR_WIDEN else np.inf
+
+
+@nb.njit(**JIT, inline="always")
+def node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi, dist):
+    """dist[lane] = entry distance of the ray into child box `lane` of `node`, inf if it misses [t_lo, t_hi].
+
+    bounds is the flat float32 node array (24 floats a node: rows lo x, y, z, hi x, y, z of 4 lanes each).
+    Empty lanes hold a box at +infinity and so always miss. (A min/max form with constant indices, written
+    for LLVM's SLP vectoriser, was not vectorised and measured slower.)
+    """
+    base = node * 24
+    for lane in range(4):
+        dist[lane] = _lane(bounds, base + lane, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi)
+
+
+@nb.njit(**JIT, inline="always")
+def push_nearest_first(dist, codes, stack_node, stack_t, sp):
+    """Order the lanes a node visit hit by entry distance (a 5-exchange sorting network); push all but the
+    nearest, farthest first, and return (nearest child code or 0 if none was hit, new stack pointer)."""
+    d0, d1, d2, d3 = dist[0], dist[1], dist[2], dist[3]
+    l0, l1, l2, l3 = 0, 1, 2, 3
+    if d1 < d0:
+        d0, d1, l0, l1 = d1, d0, l1, l0
+    if d3 < d2:
+        d2, d3, l2, l3 = d3, d2, l3, l2
+    if d2 < d0:
+        d0, d2, l0, l2 = d2, d0, l2, l0
+    if d3 < d1:
+        d1, d3, l1, l3 = d3, d1, l3, l1
+    if d2 < d1:
+        d1, d2, l1, l2 = d2, d1, l2, l1
+    if d0 == np.inf:
+        return 0, sp
+    if d3 < np.inf:
+        stack_node[sp] = codes[l3]
+        stack_t[sp] = d3
+        sp += 1
+    if d2 < np.inf:
+        stack_node[sp] = codes[l2]
+        stack_t[sp] = d2
+        sp += 1
+    if d1 < np.inf:
+        stack_node[sp] = codes[l1]
+        stack_t[sp] = d1
+        sp += 1
+    return codes[l0], sp
+
+
+@nb.njit(**JIT)
+def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                 ox, oy, oz, dx, dy, dz, t_min, t_max, stack_node, stack_t, dist):
+    """Closest hit in one tree: (t, kind, prim, u, v) with t = inf, kind 0 when nothing is hit before t_max.
+
+    bounds float32 flat (N*24,), child int32 (N, 4), leaf_tri float64 flat (M*9,). Children are visited
+    nearest entry first; the others wait on the stack with their entry distance and are dropped when a closer
+    hit has been found meanwhile. stack_node, stack_t and dist (4,) are the caller's scratch.
+    """
+    best = t_max
+    kind = 0
+    prim = -1
+    bu = 0.0
+    bv = 0.0
+    idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+    sp = 0
+    node = root
+    while True:
+        if node >= 0:
+            node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, best, dist)
+            nxt, sp = push_nearest_first(dist, child[node], stack_node, stack_t, sp)
+            if nxt != 0:
+                node = nxt
+                continue
+        else:
+            v = -node - 1
+            first = v >> 3
+            for j in range(first, first + (v & 7)):
+                p = leaf_prim[j]
+                if p >= 0:
+                    t, u, w = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz,
+                                                  t_min, best)
+                    if t < best:
+                        best, kind, prim, bu, bv = t, TRIANGLE, p, u, w
+                else:
+                    s = -p - 1
+                    t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s],
+                                                   sph_w2o[s], t_min, best)
+                    if t < best:
+                        best, kind, prim, bu, bv = t, SPHERE, s, 0.0, 0.0
+        # pop the next subtree that can still hold a closer hit
+        node = 0
+        while sp > 0:
+            sp -= 1
+            if stack_t[sp] <= best:
+                node = stack_node[sp]
+                break
+        if node == 0:
+            break
+    if kind == 0:
+        best = np.inf
+    return best, kind, prim, bu, bv
+
+
+@nb.njit(**JIT)
+def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+             ox, oy, oz, dx, dy, dz, t_min, t_max, stack_node, dist):
+    """True as soon as anything is hit with t_min < t < t_max (no ordering: the first hit ends the search)."""
+    idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+    stack_node[0] = root
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        node = stack_node[sp]
+        if node >= 0:
+            node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max, dist)
+            for lane in range(4):
+                if dist[lane] < np.inf:
+                    stack_node[sp] = child[node, lane]
+                    sp += 1
+        else:
+            v = -node - 1
+            first = v >> 3
+            for j in range(first, first + (v & 7)):
+                p = leaf_prim[j]
+                if p >= 0:
+                    t, _, _ = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz,
+                                                  t_min, t_max)
+                else:
+                    s = -p - 1
+                    t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s],
+                                                   sph_w2o[s], t_min, t_max)
+                if t < np.inf:
+                    return True
+    return False
+
+
+@nb.njit(**JIT)
+def blas_all(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+             ox, oy, oz, dx, dy, dz, t_min, t_max, stack_node, dist,
+             out_t, out_prim, out_kind, out_u, out_v, n_out):
+    """Every hit with t_min < t < t_max (a sphere counts twice when both roots are in range), appended to the
+    out_* arrays from n_out on while they have room. Returns the new count, which may exceed the arrays'
+    length: the caller then sizes them from the count and calls again."""
+    idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+    cap = out_t.shape[0]
+    stack_node[0] = root
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        node = stack_node[sp]
+        if node >= 0:
+            node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max, dist)
+            for lane in range(4):
+                if dist[lane] < np.inf:
+                    stack_node[sp] = child[node, lane]
+                    sp += 1
+            continue
+        v = -node - 1
+        first = v >> 3
+        for j in range(first, first + (v & 7)):
+            p = leaf_prim[j]
+            if p >= 0:
+                t, u, w = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz,
+                                              t_min, t_max)
+                if t < np.inf:
+                    if n_out < cap:
+                        out_t[n_out], out_prim[n_out], out_kind[n_out] = t, p, TRIANGLE
+                        out_u[n_out], out_v[n_out] = u, w
+                    n_out += 1
+                continue
+            s = -p - 1
+            lo = t_min
+            for _ in range(2):  # near root, then the far root beyond it
+                t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s],
+                                               sph_w2o[s], lo, t_max)
+                if t == np.inf:
+                    break
+                if n_out < cap:
+                    out_t[n_out], out_prim[n_out], out_kind[n_out] = t, s, SPHERE
+                    out_u[n_out], out_v[n_out] = 0.0, 0.0
+                n_out += 1
+                lo = t
+    return n_out
+
+
+@nb.njit(**JIT)
+def _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min, best):
+    """Closest unbounded plane: (t, plane index) with t = best, index -1 if none is closer."""
+    prim = -1
+    for k in range(pl_offset.shape[0]):
+        nx, ny, nz = pl_normal[k, 0], pl_normal[k, 1], pl_normal[k, 2]
+        denom = nx * dx + ny * dy + nz * dz
+        if denom == 0.0:
+            continue
+        t = (pl_offset[k] - (nx * ox + ny * oy + nz * oz)) / denom
+        if t_min < t < best:
+            best = t
+            prim = k
+    return best, prim
+
+
+# ----------------------------------------------------------------------------------------------- one-level kernels
+
+@nb.njit(**JIT, parallel=True)
+def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
+                    sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size,
+                    t_out, kind_out, prim_out, u_out, v_out):
+    """Closest hit of every ray against one tree (root 0) and the planes beside it; fills the Hits arrays."""
+    n = origins.shape[0]
+    n_chunks = (n + RAY_CHUNK - 1) // RAY_CHUNK
+    for c in nb.prange(n_chunks):
+        stack_node = np.empty(stack_size, np.int32)
+        stack_t = np.empty(stack_size)
+        dist = np.empty(4)
+        for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
+            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            lo = t_min[i]
+            best, pprim = _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo, t_max[i])
+            t, kind, prim, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius,
+                                               sph_w2o, ox, oy, oz, dx, dy, dz, lo, best, stack_node, stack_t, dist)
+            if kind == 0 and pprim >= 0:
+                t, kind, prim = best, 3, pprim
+            t_out[i] = t
+            kind_out[i] = kind
+            prim_out[i] = prim
+            u_out[i] = u
+            v_out[i] = v
+
+
+@nb.njit(**JIT, parallel=True)
+def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
+                sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size, out):
+    """out[i] = whether ray i hits anything with t_min < t < t_max; planes first, then the tree."""
+    n = origins.shape[0]
+    n_chunks = (n + RAY_CHUNK - 1) // RAY_CHUNK
+    for c in nb.prange(n_chunks):
+        stack_node = np.empty(stack_size, np.int32)
+        dist = np.empty(4)
+        for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
+            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            _, pprim = _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min[i], t_max[i])
+            if pprim >= 0:
+                out[i] = True
+            else:
+                out[i] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                  ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node, dist)
+
+
+def stack_size_for(depth: int) -> int:
+    """Traversal stack entries a tree of this depth can need: three deferred children per level, plus slack."""
+    return 3 * int(depth) + 8
+
+
+def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
+    """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring."""
+    lo = np.ascontiguousarray(lo, dtype=np.float64)
+    hi = np.ascontiguousarray(hi, dtype=np.float64)
+    box, left, right, start, count, order = build_bvh2(lo, hi, max_leaf)
+    bounds, child, depth = collapse_bvh4(box, left, right, start, count)
+    return bounds, child, order, int(depth)
+
+
+__all__ = ["build_wide_bvh", "closest_hit_bvh", "any_hit_bvh", "blas_closest", "blas_any", "blas_all",
+           "push_nearest_first", "node_dists", "ray_setup",
+           "stack_size_for"]

@@ -1,0 +1,175 @@
+"""Two-level traversal (Numba): a top-level 4-wide BVH over instances, each pointing at a bottom-level tree.
+
+An instance is (root node of a bottom-level tree in the shared arrays, 3x4 world-to-object matrix). At an
+instance leaf the ray is moved into object space with its direction left unnormalised, so the bottom-level
+tree's t is the world t and one mesh can appear many times while being stored once. The top-level tree uses
+the layout of kernels/bvh.py; its leaf slots name instances.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .bvh import JIT, RAY_CHUNK, blas_all, blas_any, blas_closest, node_dists, push_nearest_first, ray_setup
+
+
+@nb.njit(**JIT, inline="always")
+def _to_object(w2o, ox, oy, oz, dx, dy, dz):
+    """The ray in an instance's object space (direction not renormalised, so t is unchanged)."""
+    m = w2o
+    return (m[0, 0] * ox + m[0, 1] * oy + m[0, 2] * oz + m[0, 3],
+            m[1, 0] * ox + m[1, 1] * oy + m[1, 2] * oz + m[1, 3],
+            m[2, 0] * ox + m[2, 1] * oy + m[2, 2] * oz + m[2, 3],
+            m[0, 0] * dx + m[0, 1] * dy + m[0, 2] * dz,
+            m[1, 0] * dx + m[1, 1] * dy + m[1, 2] * dz,
+            m[2, 0] * dx + m[2, 1] * dy + m[2, 2] * dz)
+
+
+@nb.njit(**JIT, parallel=True)
+def closest_hit_instances(origins, directions, t_min, t_max,
+                          top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                          bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
+                          t_out, inst_out, kind_out, prim_out, u_out, v_out):
+    """Closest hit of each ray over all instances: t (inf on a miss), instance (-1), kind, prim, u, v."""
+    n = origins.shape[0]
+    n_chunks = (n + RAY_CHUNK - 1) // RAY_CHUNK
+    for c in nb.prange(n_chunks):
+        top_node = np.empty(stack_size, np.int32)
+        top_t = np.empty(stack_size)
+        stack_node = np.empty(stack_size, np.int32)
+        stack_t = np.empty(stack_size)
+        dist = np.empty(4)
+        for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
+            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            lo = t_min[i]
+            best = t_max[i]
+            b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
+            idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+            sp = 0
+            node = 0
+            while True:
+                if node >= 0:
+                    node_dists(top_bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, lo, best, dist)
+                    nxt, sp = push_nearest_first(dist, top_child[node], top_node, top_t, sp)
+                    if nxt != 0:
+                        node = nxt
+                        continue
+                else:
+                    v = -node - 1
+                    first = v >> 3
+                    for j in range(first, first + (v & 7)):
+                        k = top_leaf[j]
+                        px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                        t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
+                                                           sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
+                                                           lo, best, stack_node, stack_t, dist)
+                        if kind != 0:
+                            best = t
+                            b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
+                node = 0
+                while sp > 0:
+                    sp -= 1
+                    if top_t[sp] <= best:
+                        node = top_node[sp]
+                        break
+                if node == 0:
+                    break
+            t_out[i] = best if b_kind != 0 else np.inf
+            inst_out[i] = b_inst
+            kind_out[i] = b_kind
+            prim_out[i] = b_prim
+            u_out[i] = b_u
+            v_out[i] = b_v
+
+
+@nb.njit(**JIT, parallel=True)
+def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, out):
+    """out[i] = whether ray i hits any instance with t_min < t < t_max; the first hit ends the search."""
+    n = origins.shape[0]
+    n_chunks = (n + RAY_CHUNK - 1) // RAY_CHUNK
+    for c in nb.prange(n_chunks):
+        top_node = np.empty(stack_size, np.int32)
+        stack_node = np.empty(stack_size, np.int32)
+        dist = np.empty(4)
+        for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
+            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            lo, hi = t_min[i], t_max[i]
+            idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+            hit = False
+            top_node[0] = 0
+            sp = 1
+            while sp > 0 and not hit:
+                sp -= 1
+                node = top_node[sp]
+                if node >= 0:
+                    node_dists(top_bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, lo, hi, dist)
+                    for lane in range(4):
+                        if dist[lane] < np.inf:
+                            top_node[sp] = top_child[node, lane]
+                            sp += 1
+                    continue
+                v = -node - 1
+                first = v >> 3
+                for j in range(first, first + (v & 7)):
+                    k = top_leaf[j]
+                    px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                    if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                px, py, pz, qx, qy, qz, lo, hi, stack_node, dist):
+                        hit = True
+                        break
+            out[i] = hit
+
+
+@nb.njit(**JIT, parallel=True)
+def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                       bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
+                       offsets, out_t, out_inst, out_kind, out_prim, out_u, out_v, counts):
+    """Every crossing of each ray (t_min < t < t_max). counts[i] gets ray i's number of hits; when out_t is
+    long enough, its hits are written from offsets[i] on (in traversal order). Call once with empty outputs to
+    count, then again with offsets = exclusive prefix sum of the counts to fill."""
+    n = origins.shape[0]
+    fill = out_t.shape[0] > 0
+    n_chunks = (n + RAY_CHUNK - 1) // RAY_CHUNK
+    for c in nb.prange(n_chunks):
+        top_node = np.empty(stack_size, np.int32)
+        stack_node = np.empty(stack_size, np.int32)
+        dist = np.empty(4)
+        for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
+            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            lo, hi = t_min[i], t_max[i]
+            idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+            start = offsets[i] if fill else 0
+            end = offsets[i] + counts[i] if fill else 0
+            ot, ok_, op, ou, ov = out_t[start:end], out_kind[start:end], out_prim[start:end], \
+                out_u[start:end], out_v[start:end]
+            total = 0
+            top_node[0] = 0
+            sp = 1
+            while sp > 0:
+                sp -= 1
+                node = top_node[sp]
+                if node >= 0:
+                    node_dists(top_bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, lo, hi, dist)
+                    for lane in range(4):
+                        if dist[lane] < np.inf:
+                            top_node[sp] = top_child[node, lane]
+                            sp += 1
+                    continue
+                v = -node - 1
+                first = v >> 3
+                for j in range(first, first + (v & 7)):
+                    k = top_leaf[j]
+                    px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                    before = total
+                    total = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius,
+                                     sph_w2o, px, py, pz, qx, qy, qz, lo, hi, stack_node, dist,
+                                     ot, op, ok_, ou, ov, total)
+                    if fill:
+                        for q in range(before, min(total, end - start)):
+                            out_inst[start + q] = k
+            counts[i] = total

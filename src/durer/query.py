@@ -1,0 +1,381 @@
+"""RaycastingScene: batch ray queries on triangle meshes and spheres, NumPy in and NumPy out.
+
+Names follow Open3D's RaycastingScene where they overlap (cast_rays -> t_hit, geometry_ids, primitive_ids,
+primitive_uvs, primitive_normals; test_occlusions; count_intersections; list_intersections), so its users feel
+at home. Every added geometry is an *instance*: a shared bottom-level BVH plus a 4x4 transform, so
+`add_instance(geometry_id, transform)` places a mesh again without storing it twice (a two-level BVH).
+
+    scene = durer.RaycastingScene()
+    bunny = scene.add_mesh("bun_zipper.ply")
+    scene.add_instance(bunny, transform)           # the same mesh, moved
+    hits = scene.cast_rays(origins, directions)    # dict of arrays, leading shape of the rays kept
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bvh import WideBVH, build_tree
+from .kernels.bvh import SPHERE, TRIANGLE, build_wide_bvh, stack_size_for
+from .kernels.instances import all_hits_instances, any_hit_instances, closest_hit_instances
+
+INVALID_ID = -1
+
+
+@dataclass
+class _Shape:
+    """One stored geometry (a mesh or a sphere) and its bottom-level tree, shared by its instances."""
+
+    tree: WideBVH
+    normals: np.ndarray      # (F, 3) unit object-space triangle normals (empty for a sphere)
+    center: np.ndarray       # (1, 3) sphere centre (empty for a mesh)
+    radius: np.ndarray       # (1,) sphere radius
+    lo: np.ndarray           # (3,) object-space bounds
+    hi: np.ndarray
+    build_seconds: float
+
+
+def _finite_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
+    arr = np.asarray(a)
+    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
+    if arr.ndim < len(shape_tail) or tuple(arr.shape[arr.ndim - len(shape_tail):]) != shape_tail:
+        want = "(..., " + ", ".join(map(str, shape_tail)) + ")"
+        raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    arr = np.ascontiguousarray(arr, dtype=np.float64)
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name} contains NaN or infinity")
+    return arr
+
+
+def _transform(matrix) -> np.ndarray:
+    m = np.asarray(matrix, dtype=np.float64)
+    if m.shape != (4, 4):
+        raise ValueError(f"transform must be a 4x4 matrix, got shape {m.shape}")
+    if not np.isfinite(m).all():
+        raise ValueError("transform contains NaN or infinity")
+    if not np.allclose(m[3], [0.0, 0.0, 0.0, 1.0]):
+        raise ValueError(f"transform must be affine (last row 0 0 0 1), got {m[3]}")
+    if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+        raise ValueError("transform is singular")
+    return m
+
+
+class RaycastingScene:
+    """Triangle meshes and spheres, each placed by a 4x4 transform, queried by batches of rays.
+
+    Geometry ids count up from 0 in the order geometries (and instances) are added. The BVHs are built on the
+    first query after a change (each mesh's own tree when it is added); `build_seconds` totals both.
+    """
+
+    def __init__(self) -> None:
+        self._shapes: list[_Shape] = []
+        self._instances: list[tuple[int, np.ndarray]] = []  # (shape index, object-to-world 4x4)
+        self._packed: dict | None = None
+        self.build_seconds = 0.0
+
+    # ---------------------------------------------------------------------------------------------- adding
+    def add_triangles(self, vertices, triangles, transform=None) -> int:
+        """Add a mesh: vertices (V, 3) float, triangles (F, 3) int indices. Returns its geometry id."""
+        v = _finite_array("vertices", vertices, (3,))
+        if v.ndim != 2:
+            raise ValueError(f"vertices must have shape (V, 3), got {v.shape}")
+        f = np.asarray(triangles)
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise ValueError(f"triangles must have shape (F, 3), got {f.shape}")
+        if f.size and not np.issubdtype(f.dtype, np.integer):
+            if not np.issubdtype(f.dtype, np.floating) or not np.all(np.mod(f, 1) == 0):
+                raise ValueError(f"triangles must hold integer vertex indices, got dtype {f.dtype}")
+        f = f.astype(np.int64)
+        if f.size and (f.min() < 0 or f.max() >= len(v)):
+            bad = f[(f < 0) | (f >= len(v))][0]
+            raise ValueError(f"triangle index {bad} out of range for {len(v)} vertices")
+        tris = v[f]
+        normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        np.divide(normals, length, out=normals, where=length > 0)
+        start = time.perf_counter()
+        tree = build_tree(tris, np.zeros((0, 3)), np.zeros((0, 3)))
+        seconds = time.perf_counter() - start
+        lo = tris.min(axis=(0, 1)) if len(tris) else np.zeros(3)
+        hi = tris.max(axis=(0, 1)) if len(tris) else np.zeros(3)
+        self._shapes.append(_Shape(tree, normals, np.zeros((0, 3)), np.zeros(0), lo, hi, seconds))
+        return self._add(len(self._shapes) - 1, transform)
+
+    def add_mesh(self, mesh, transform=None) -> int:
+        """Add a trimesh.Trimesh, or a mesh file (anything trimesh reads: PLY, OBJ, STL, glTF...)."""
+        if isinstance(mesh, (str, os.PathLike)):
+            import trimesh
+
+            if not os.path.exists(mesh):
+                raise FileNotFoundError(f"no such mesh file: {os.fspath(mesh)}")
+            mesh = trimesh.load(os.fspath(mesh), force="mesh", process=False)
+        if not hasattr(mesh, "vertices") or not hasattr(mesh, "faces"):
+            raise ValueError(f"add_mesh needs a trimesh.Trimesh or a path, got {type(mesh).__name__}")
+        return self.add_triangles(mesh.vertices, mesh.faces, transform)
+
+    def add_sphere(self, center, radius: float, transform=None) -> int:
+        """Add a sphere (an ellipsoid under a non-uniform transform). Returns its geometry id."""
+        c = _finite_array("center", center, (3,)).reshape(-1)
+        if c.shape != (3,):
+            raise ValueError(f"center must have shape (3,), got {np.shape(center)}")
+        r = float(radius)
+        if not np.isfinite(r) or r <= 0.0:
+            raise ValueError(f"radius must be positive and finite, got {radius}")
+        tree = build_tree(np.zeros((0, 3, 3)), (c - r)[None], (c + r)[None])
+        self._shapes.append(_Shape(tree, np.zeros((0, 3)), c[None], np.array([r]), c - r, c + r, 0.0))
+        return self._add(len(self._shapes) - 1, transform)
+
+    def add_instance(self, geometry_id: int, transform) -> int:
+        """Place geometry `geometry_id`'s shape again under `transform` (4x4, object to world, applied on top of
+        nothing: the new instance's transform replaces the original's). The shape is stored once."""
+        if not 0 <= int(geometry_id) < len(self._instances):
+            raise ValueError(f"no geometry with id {geometry_id} (have {len(self._instances)})")
+        return self._add(self._instances[int(geometry_id)][0], transform)
+
+    def _add(self, shape: int, transform) -> int:
+        m = np.eye(4) if transform is None else _transform(transform)
+        self._instances.append((shape, m))
+        self._packed = None
+        return len(self._instances) - 1
+
+    # ------------------------------------------------------------------------------------------------ build
+    def _pack(self) -> dict:
+        """Concatenate the shapes' trees into shared arrays and build the top-level tree over instances."""
+        if self._packed is not None:
+            return self._packed
+        start = time.perf_counter()
+        node_off, slot_off, sph_off, tri_off = [], [], [], []
+        n_nodes = n_slots = n_sph = n_tri = 0
+        for s in self._shapes:
+            node_off.append(n_nodes)
+            slot_off.append(n_slots)
+            sph_off.append(n_sph)
+            tri_off.append(n_tri)
+            n_nodes += len(s.tree.child)
+            n_slots += len(s.tree.leaf_prim)
+            n_sph += len(s.radius)
+            n_tri += len(s.normals)
+        bounds = np.concatenate([s.tree.bounds for s in self._shapes]) if self._shapes else np.zeros((0, 6, 4))
+        child = []
+        leaf_prim = []
+        for s, no, so, ho in zip(self._shapes, node_off, slot_off, sph_off, strict=True):
+            c = s.tree.child.astype(np.int64)
+            inner = c > 0
+            leaf = c < 0
+            code = -c - 1
+            c = np.where(inner, c + no, c)
+            c = np.where(leaf, -(((code >> 3) + so) * 8 + (code & 7)) - 1, c)
+            child.append(c)
+            p = s.tree.leaf_prim
+            leaf_prim.append(np.where(p >= 0, p, p - ho))
+        if n_slots * 8 >= 2**31:
+            raise ValueError("scene too large for 32-bit leaf codes")
+        child_all = np.concatenate(child).astype(np.int32) if child else np.zeros((0, 4), np.int32)
+        lp = np.concatenate(leaf_prim).astype(np.int32) if leaf_prim else np.zeros(0, np.int32)
+        lt = np.concatenate([s.tree.leaf_tri for s in self._shapes]) if self._shapes else np.zeros((0, 9))
+        sph_c = np.concatenate([s.center for s in self._shapes]) if self._shapes else np.zeros((0, 3))
+        sph_r = np.concatenate([s.radius for s in self._shapes]) if self._shapes else np.zeros(0)
+        sph_w2o = np.tile(np.eye(4)[:3], (len(sph_r), 1, 1))
+
+        # instances: world boxes (the 8 transformed corners of each shape's box) and world-to-object matrices
+        k = len(self._instances)
+        inst_root = np.array([node_off[s] for s, _ in self._instances], dtype=np.int32)
+        o2w = np.array([m for _, m in self._instances]).reshape(k, 4, 4)
+        w2o = np.ascontiguousarray(np.linalg.inv(o2w)[:, :3, :]) if k else np.zeros((0, 3, 4))
+        lo = np.zeros((k, 3))
+        hi = np.zeros((k, 3))
+        corners = np.array(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij")).reshape(3, 8).T
+        for i, (s, m) in enumerate(self._instances):
+            shape = self._shapes[s]
+            pts = np.where(corners, shape.hi, shape.lo) @ m[:3, :3].T + m[:3, 3]
+            lo[i], hi[i] = pts.min(axis=0), pts.max(axis=0)
+        top_bounds, top_child, top_leaf, top_depth = build_wide_bvh(lo, hi)
+        depth = max([top_depth] + [s.tree.depth for s in self._shapes])
+        normals = np.concatenate([s.normals for s in self._shapes]) if self._shapes else np.zeros((0, 3))
+        self._packed = dict(
+            top=(top_bounds.reshape(-1), top_child, top_leaf, inst_root, w2o),
+            blas=(bounds.reshape(-1), child_all, lp, lt.reshape(-1), sph_c, sph_r, sph_w2o),
+            stack=stack_size_for(depth), tri_off=np.array(tri_off + [n_tri], np.int64),
+            sph_off=np.array(sph_off + [n_sph], np.int64), normals=normals,
+            inst_shape=np.array([s for s, _ in self._instances], dtype=np.int64), o2w=o2w, w2o=w2o,
+        )
+        self.build_seconds = time.perf_counter() - start + sum(s.build_seconds for s in self._shapes)
+        return self._packed
+
+    def _args(self):
+        p = self._pack()
+        return (*p["top"], *p["blas"], p["stack"])
+
+    # ------------------------------------------------------------------------------------------------ rays
+    def _rays(self, origins, directions, t_min, t_max):
+        """Validate and flatten: (origins (N,3), directions (N,3), t_min (N,), t_max (N,), leading shape)."""
+        if directions is None:
+            rays = np.asarray(origins)
+            if rays.ndim < 1 or rays.shape[-1] != 6:
+                raise ValueError(f"rays must have shape (..., 6) when no directions are given, got {rays.shape}")
+            rays = _finite_array("rays", rays, (6,))
+            origins, directions = rays[..., :3], rays[..., 3:]
+        o = _finite_array("origins", origins, (3,))
+        d = _finite_array("directions", directions, (3,))
+        if o.shape != d.shape:
+            raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
+        lead = o.shape[:-1]
+        o = o.reshape(-1, 3)
+        d = d.reshape(-1, 3)
+        if len(d) and not np.any(d != 0.0, axis=1).all():
+            i = int(np.argmin(np.any(d != 0.0, axis=1)))
+            raise ValueError(f"direction {i} is zero")
+        lo = self._interval("t_min", t_min, lead)
+        hi = self._interval("t_max", t_max, lead)
+        return o, d, lo, hi, lead
+
+    @staticmethod
+    def _interval(name: str, value, lead) -> np.ndarray:
+        a = np.asarray(value, dtype=np.float64)
+        if np.isnan(a).any():
+            raise ValueError(f"{name} contains NaN")
+        try:
+            a = np.broadcast_to(a, lead)
+        except ValueError:
+            raise ValueError(f"{name} of shape {a.shape} does not broadcast to the rays' shape {lead}") from None
+        return np.ascontiguousarray(a).reshape(-1)
+
+    def cast_rays(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
+        """Closest hit of each ray. origins and directions (..., 3), or one (..., 6) array of both.
+
+        Returns t_hit (inf on a miss), geometry_ids and primitive_ids (-1 on a miss, uint32-safe int32),
+        primitive_uvs (barycentric weights of vertex 1 and 2), primitive_normals (unit, world space, by the
+        triangle's winding; spheres: outward), each shaped like the rays' leading dimensions. Directions need
+        not be unit length; t is in units of the direction's length.
+        """
+        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
+        n = len(o)
+        t = np.empty(n)
+        inst = np.empty(n, np.int32)
+        kind = np.empty(n, np.int8)
+        prim = np.empty(n, np.int32)
+        u = np.empty(n)
+        v = np.empty(n)
+        if self._instances and n:
+            closest_hit_instances(o, d, lo, hi, *self._args(), t, inst, kind, prim, u, v)
+        else:
+            t[:], inst[:], kind[:], prim[:], u[:], v[:] = np.inf, -1, 0, -1, 0.0, 0.0
+        normals = self._normals(o, d, t, inst, kind, prim)
+        prim = np.where(kind == SPHERE, 0, prim).astype(np.int32)
+        return {
+            "t_hit": t.reshape(lead),
+            "geometry_ids": inst.reshape(lead),
+            "primitive_ids": prim.reshape(lead),
+            "primitive_uvs": np.stack([u, v], axis=-1).reshape(*lead, 2),
+            "primitive_normals": normals.reshape(*lead, 3),
+        }
+
+    def _normals(self, o, d, t, inst, kind, prim) -> np.ndarray:
+        out = np.zeros((len(t), 3))
+        if not self._instances:
+            return out
+        p = self._pack()
+        m = kind == TRIANGLE
+        if m.any():
+            k = inst[m]
+            n_obj = p["normals"][p["tri_off"][p["inst_shape"][k]] + prim[m]]
+            w2o = p["w2o"][k]
+            # normals move by the inverse transpose; a mirror flips the winding, as moved vertices would
+            n = np.einsum("kji,kj->ki", w2o[:, :, :3], n_obj)
+            n *= np.sign(np.linalg.det(w2o[:, :, :3]))[:, None]
+            out[m] = n
+        m = kind == SPHERE
+        if m.any():
+            k = inst[m]
+            w2o = p["w2o"][k]
+            x = o[m] + t[m, None] * d[m]
+            x_obj = np.einsum("kij,kj->ki", w2o[:, :, :3], x) + w2o[:, :, 3]
+            n_obj = x_obj - self._packed["blas"][4][prim[m]]
+            out[m] = np.einsum("kji,kj->ki", w2o[:, :, :3], n_obj)
+        length = np.linalg.norm(out, axis=1, keepdims=True)
+        np.divide(out, length, out=out, where=length > 0)
+        return out
+
+    def test_occlusions(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> np.ndarray:
+        """True for each ray that hits anything with t_min < t < t_max (stops at the first hit found)."""
+        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
+        out = np.zeros(len(o), dtype=np.bool_)
+        if self._instances and len(o):
+            any_hit_instances(o, d, lo, hi, *self._args(), out)
+        return out.reshape(lead)
+
+    def _all_hits(self, o, d, lo, hi, fill: bool):
+        n = len(o)
+        counts = np.zeros(n, np.int64)
+        empty_f, empty_i, empty_k = np.zeros(0), np.zeros(0, np.int32), np.zeros(0, np.int8)
+        args = self._args()
+        all_hits_instances(o, d, lo, hi, *args, np.zeros(n, np.int64), empty_f, empty_i, empty_k, empty_i,
+                           empty_f, empty_f, counts)
+        if not fill:
+            return counts, None
+        offsets = np.zeros(n, np.int64)
+        np.cumsum(counts[:-1], out=offsets[1:])
+        total = int(counts.sum())
+        out = dict(t=np.empty(total), inst=np.empty(total, np.int32), kind=np.empty(total, np.int8),
+                   prim=np.empty(total, np.int32), u=np.empty(total), v=np.empty(total))
+        if total:
+            all_hits_instances(o, d, lo, hi, *args, offsets, out["t"], out["inst"], out["kind"], out["prim"],
+                               out["u"], out["v"], counts)
+        return counts, out
+
+    def count_intersections(self, origins, directions=None, t_min: float = 0.0,
+                            t_max: float = np.inf) -> np.ndarray:
+        """Number of surface crossings along each ray (spheres count twice when passed through), int32.
+
+        For a point and any direction, an odd count means inside a closed mesh. A ray through a shared edge or
+        vertex hits every triangle there (the test is watertight, so none is skipped), which adds crossings:
+        use a random direction.
+        """
+        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
+        if not self._instances or not len(o):
+            return np.zeros(lead, np.int32)
+        counts, _ = self._all_hits(o, d, lo, hi, fill=False)
+        return counts.astype(np.int32).reshape(lead)
+
+    def list_intersections(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
+        """Every crossing of every ray, as flat arrays sorted by ray then t (Open3D's layout):
+
+        ray_splits (N+1,) so ray i's hits are [ray_splits[i], ray_splits[i+1]); ray_ids, t_hit, geometry_ids,
+        primitive_ids, primitive_uvs (M, 2). Rays are numbered in C order of the leading shape.
+        """
+        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
+        n = len(o)
+        if self._instances and n:
+            counts, out = self._all_hits(o, d, lo, hi, fill=True)
+        else:
+            counts = np.zeros(n, np.int64)
+            out = dict(t=np.zeros(0), inst=np.zeros(0, np.int32), kind=np.zeros(0, np.int8),
+                       prim=np.zeros(0, np.int32), u=np.zeros(0), v=np.zeros(0))
+        ray_ids = np.repeat(np.arange(n, dtype=np.int64), counts)
+        order = np.lexsort((out["t"], ray_ids))
+        prim = np.where(out["kind"] == SPHERE, 0, out["prim"]).astype(np.int32)
+        splits = np.zeros(n + 1, np.int64)
+        np.cumsum(counts, out=splits[1:])
+        return {
+            "ray_splits": splits,
+            "ray_ids": ray_ids[order],
+            "t_hit": out["t"][order],
+            "geometry_ids": out["inst"][order],
+            "primitive_ids": prim[order],
+            "primitive_uvs": np.stack([out["u"], out["v"]], axis=-1)[order],
+        }
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the BVHs (after the first query or an explicit build())."""
+        p = self._pack()
+        return sum(a.nbytes for a in (*p["top"], *p["blas"]))
+
+    def build(self) -> None:
+        """Build now rather than on the first query (for timing)."""
+        self._pack()
