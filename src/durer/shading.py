@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import DurerError
 from .lights import DirectionalLight, PointLight
 from .materials import PhongMaterial
 
@@ -30,17 +29,20 @@ class MaterialTable:
 
     @classmethod
     def from_materials(cls, materials: list) -> MaterialTable:
-        for i, m in enumerate(materials):
-            if not isinstance(m, PhongMaterial):
-                raise DurerError(f"material {i} is a {type(m).__name__}: solid textures need the ray tracer")
+        """Rows indexed by scene material id. Solid textures get all-zero rows: they are never shaded directly,
+        texturing.leaf_weights resolves them into the Phong materials they blend."""
+        phong = [m if isinstance(m, PhongMaterial) else _NO_MATERIAL for m in materials]
         return cls(
-            diffuse=np.array([m.diffuse_color for m in materials]).reshape(-1, 3),
-            specular=np.array([m.specular_color for m in materials]).reshape(-1, 3),
-            exponent=np.array([m.exponent for m in materials], dtype=np.float64),
-            reflective=np.array([m.reflective_color for m in materials]).reshape(-1, 3),
-            transparent=np.array([m.transparent_color for m in materials]).reshape(-1, 3),
-            ior=np.array([m.index_of_refraction for m in materials], dtype=np.float64),
+            diffuse=np.array([m.diffuse_color for m in phong]).reshape(-1, 3),
+            specular=np.array([m.specular_color for m in phong]).reshape(-1, 3),
+            exponent=np.array([m.exponent for m in phong], dtype=np.float64),
+            reflective=np.array([m.reflective_color for m in phong]).reshape(-1, 3),
+            transparent=np.array([m.transparent_color for m in phong]).reshape(-1, 3),
+            ior=np.array([m.index_of_refraction for m in phong], dtype=np.float64),
         )
+
+
+_NO_MATERIAL = PhongMaterial(diffuse_color=(0.0, 0.0, 0.0))
 
 
 def light_directions(light, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
