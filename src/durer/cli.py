@@ -181,8 +181,11 @@ def run_course(argv: list[str]) -> int:
         result.save_depth(depth[2], depth[0], depth[1])
     if a.normals:
         result.save_normals(a.normals)
-    if a.stats:
-        print(f"rendered {width}x{height} in {result.seconds:.3f} s", file=sys.stderr)
+    if a.stats:  # the course's RayTracingStats summary (stats.py); the time alone if nothing was counted
+        if result.stats is not None:
+            print(result.stats.report(width, height, result.seconds), file=sys.stderr)
+        else:
+            print(f"rendered {width}x{height} in {result.seconds:.3f} s", file=sys.stderr)
     return 0
 
 

@@ -17,6 +17,7 @@ from .integrators import RenderContext, SampleResult, raycast
 from .io.images import depth_visualization, normal_visualization, save_image
 from .options import RenderOptions
 from .scene import Scene
+from .stats import CountingAccelerator, RayStats
 
 CHUNK = 1 << 15  # rays per batch: big enough to keep the kernels busy, small enough for a live progress bar
 
@@ -34,6 +35,7 @@ class RenderResult:
     depth: np.ndarray
     normals: np.ndarray
     seconds: float = 0.0
+    stats: RayStats | None = None  # -stats counters (None unless options.stats)
 
     def save(self, path: str | os.PathLike, *, course: bool = False) -> None:
         """Write the colour image (8-bit formats sRGB-encoded, or truncated like the course with course=True)."""
@@ -66,11 +68,25 @@ class RenderResult:
 def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     """Compile the scene and build its accelerator."""
     cs = compile_scene(scene)
-    return RenderContext(scene=scene, compiled=cs, accel=BruteForce(cs), options=options)
+    accel = BruteForce(cs)
+    # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
+    # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
+    stats = RayStats() if options.stats else None
+    if options.grid is not None:
+        from .grid import GridAccelerator, spheres_under_transform
+
+        accel = GridAccelerator(cs, options.grid, sphere_as_box=spheres_under_transform(scene), stats=stats)
+    elif stats is not None:
+        accel = CountingAccelerator(accel, stats, sum(cs.counts) if isinstance(accel, BruteForce) else None)
+    return RenderContext(scene=scene, compiled=cs, accel=accel, options=options)
 
 
 def choose_integrator(options: RenderOptions):
-    """The lecture's ray caster unless the options ask for secondary rays."""
+    """The lecture's ray caster unless the options ask for secondary rays (or for the grid's cells)."""
+    if options.visualize_grid:  # -visualize_grid (grid.py): draw the occupied grid cells instead
+        from .grid import visualize_grid
+
+        return visualize_grid
     if options.shadows or options.bounces > 0:
         from .tracer import whitted
 
@@ -143,6 +159,7 @@ def render(scene: Scene, width: int, height: int, *, options: RenderOptions | No
         depth=depth[centre].reshape(height, width).astype(np.float32),
         normals=normals[centre].reshape(height, width, 3).astype(np.float32),
         seconds=time.perf_counter() - start,
+        stats=getattr(ctx.accel, "stats", None),
     )
 
 

@@ -1,0 +1,220 @@
+"""The course's uniform grid (assignments 5-6): `-grid nx ny nz`, `-visualize_grid` and the grid's `-stats`.
+
+GridAccelerator is an accelerator like BruteForce (closest_hit / any_hit returning identical results); the
+kernels are in kernels/grid.py. The grid covers the course's scene bounding box, and primitives go into cells
+as the course's solution inserts them, which is what -visualize_grid shows:
+
+* a triangle into every cell its (world-space) bounding box overlaps - the handout's "special case for
+  transformed triangles": the box of the transformed vertices, not the transformed box;
+* a sphere with no Transform above it into every cell whose centre lies within the radius plus half the
+  cell's diagonal of the sphere's centre (the handout's rasterisation by cell centres, made conservative);
+* a sphere under a Transform (even an identity one) into every cell of its bounding box, the handout's
+  fallback "Object3D::insertIntoGrid", the box being the transformed corners of the sphere's own box;
+* planes into no cell: they are tested beside the grid, as the course does for infinite primitives.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .compile import CompiledScene
+from .hits import Hits, _per_ray
+from .kernels.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell
+from .scene import Group, Scene, Transform
+from .shapes import Sphere
+from .stats import RayStats
+
+# -visualize_grid colours a cell by how many primitives it holds: white 1, magenta 2, then through blue, cyan,
+# green and yellow to red for 17 or more (the colours measured off the course's reference images).
+COUNT_COLORS = np.array([
+    (1.0, 1.0, 1.0), (1.0, 0.0, 1.0), (0.7, 0.0, 1.0), (0.3, 0.0, 1.0), (0.0, 0.0, 1.0), (0.0, 0.3, 1.0),
+    (0.0, 0.7, 1.0), (0.0, 1.0, 1.0), (0.0, 1.0, 0.7), (0.0, 1.0, 0.3), (0.0, 1.0, 0.0), (0.3, 1.0, 0.0),
+    (0.7, 1.0, 0.0), (1.0, 1.0, 0.0), (1.0, 0.7, 0.0), (1.0, 0.3, 0.0), (1.0, 0.0, 0.0),
+])
+
+
+def spheres_under_transform(scene: Scene) -> np.ndarray:
+    """(S,) bool, in CompiledScene order: is sphere k below some Transform node of the scene tree?"""
+    flags: list[bool] = []
+
+    def visit(obj, transformed: bool) -> None:
+        if isinstance(obj, Group):
+            for child in obj.objects:
+                visit(child, transformed)
+        elif isinstance(obj, Transform):
+            visit(obj.object, True)
+        elif isinstance(obj, Sphere):
+            flags.append(transformed)
+
+    visit(scene.group, False)
+    return np.array(flags, dtype=bool)
+
+
+def _sphere_boxes(cs: CompiledScene, as_box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World boxes of the spheres: centre +- r when untransformed, else the 8 transformed corners of the
+    object-space box (the course's transformed bounding box; exact for scales and translations)."""
+    s = len(cs.sphere_radius)
+    lo = cs.sphere_center - cs.sphere_radius[:, None]
+    hi = cs.sphere_center + cs.sphere_radius[:, None]
+    if not s or not as_box.any():
+        return lo, hi
+    m = np.zeros((s, 4, 4))
+    m[:, :3, :] = cs.sphere_world_to_object
+    m[:, 3, 3] = 1.0
+    o2w = np.linalg.inv(m)
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=np.float64)
+    pts = lo[:, None, :] + corners[None] * (hi - lo)[:, None, :]                   # (S, 8, 3) object space
+    world = np.einsum("sij,skj->ski", o2w[:, :3, :3], pts) + o2w[:, None, :3, 3]
+    wlo, whi = world.min(axis=1), world.max(axis=1)
+    return np.where(as_box[:, None], wlo, lo), np.where(as_box[:, None], whi, hi)
+
+
+class GridAccelerator:
+    """A uniform grid of nx x ny x nz cells over the scene's bounded primitives, walked with 3D-DDA.
+
+    `sphere_as_box` (S,) says which spheres go in by their box (the course: those under a Transform); by
+    default the spheres whose world-to-object matrix is not the identity. `exact_triangles` keeps a triangle
+    only in the cells its plane really crosses (separating-axis test) instead of all cells of its box: fewer
+    tests, but not what the course's images show. Pass a RayStats as `stats` to count rays, tests and cells.
+    """
+
+    name = "grid"
+
+    def __init__(self, cs: CompiledScene, dims: tuple[int, int, int], *, sphere_as_box: np.ndarray | None = None,
+                 exact_triangles: bool = False, stats: RayStats | None = None):
+        dims = tuple(int(n) for n in dims)
+        if len(dims) != 3 or min(dims) < 1:
+            raise ValueError(f"grid needs three positive cell counts, got {dims}")
+        self.cs = cs
+        self.dims = np.array(dims, dtype=np.int64)
+        if sphere_as_box is None:
+            identity = np.zeros((3, 4))
+            identity[:, :3] = np.eye(3)
+            sphere_as_box = ~np.all(cs.sphere_world_to_object == identity, axis=(1, 2))
+        self.sphere_as_box = np.asarray(sphere_as_box, dtype=bool).reshape(len(cs.sphere_radius))
+        sph_lo, sph_hi = _sphere_boxes(cs, self.sphere_as_box)
+        self.lo, self.hi = self._bounds(cs, sph_lo, sph_hi)
+        self.size = (self.hi - self.lo) / self.dims
+        self.start, self.items = build_cells(cs.triangles, exact_triangles, cs.sphere_center, cs.sphere_radius,
+                                             sph_lo, sph_hi, self.sphere_as_box, self.lo, self.size, self.dims)
+        self.stats = stats
+        if stats is not None:
+            stats.bounds = (self.lo.copy(), self.hi.copy())
+            stats.grid = dims
+
+    @staticmethod
+    def _bounds(cs: CompiledScene, sph_lo: np.ndarray, sph_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The scene box of the bounded primitives; a flat axis is widened a little so cells keep a size."""
+        los, his = [], []
+        if len(cs.triangles):
+            los.append(cs.triangles.min(axis=(0, 1)))
+            his.append(cs.triangles.max(axis=(0, 1)))
+        if len(sph_lo):
+            los.append(sph_lo.min(axis=0))
+            his.append(sph_hi.max(axis=0))
+        if not los:
+            return np.zeros(3), np.ones(3)
+        lo, hi = np.min(los, axis=0), np.max(his, axis=0)
+        pad = 1e-6 * max(float(np.max(hi - lo)), 1.0)
+        flat = (hi - lo) <= pad
+        return np.where(flat, lo - pad, lo), np.where(flat, hi + pad, hi)
+
+    @property
+    def cell_counts(self) -> np.ndarray:
+        """(nz, ny, nx) number of primitives in each cell."""
+        nx, ny, nz = (int(n) for n in self.dims)
+        return np.diff(self.start).reshape(nz, ny, nx)
+
+    def cell_items(self, i: int, j: int, k: int) -> list[tuple[int, int]]:
+        """(kind, index) of the primitives in cell (i, j, k): kind 1 triangle, 2 sphere."""
+        nx, ny = int(self.dims[0]), int(self.dims[1])
+        c = (k * ny + j) * nx + i
+        return [(1, int(x)) if x >= 0 else (2, int(-x - 1)) for x in self.items[self.start[c]:self.start[c + 1]]]
+
+    def _geometry(self):
+        cs = self.cs
+        return (self.lo, self.hi, self.size, self.dims, self.start, self.items, cs.triangles, cs.sphere_center,
+                cs.sphere_radius, cs.sphere_world_to_object, cs.plane_normal, cs.plane_offset)
+
+    def _counters(self, n: int) -> tuple[bool, np.ndarray, np.ndarray]:
+        if self.stats is None:
+            return False, np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return True, np.zeros(n, np.int64), np.zeros(n, np.int64)
+
+    def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> Hits:
+        n = len(origins)
+        h = Hits.empty(n)
+        count, tests, cells = self._counters(n)
+        closest_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
+                         np.ascontiguousarray(directions, dtype=np.float64),
+                         _per_ray(t_min, n), _per_ray(t_max, n), *self._geometry(),
+                         h.t, h.kind, h.prim, h.u, h.v, count, tests, cells)
+        if count:
+            self.stats.add(n, False, int(tests.sum()), int(cells.sum()))
+        return h
+
+    def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> np.ndarray:
+        n = len(origins)
+        out = np.empty(n, dtype=np.bool_)
+        count, tests, cells = self._counters(n)
+        any_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
+                     np.ascontiguousarray(directions, dtype=np.float64),
+                     _per_ray(t_min, n), _per_ray(t_max, n), *self._geometry(), out, count, tests, cells)
+        if count:
+            self.stats.add(n, True, int(tests.sum()), int(cells.sum()))
+        return out
+
+    def first_occupied(self, origins, directions, t_min=0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per ray: entry t of the first cell holding a primitive (inf if none), the axis of the face it
+        enters through (-1 when the ray starts inside that cell), and the cell's primitive count."""
+        n = len(origins)
+        t = np.empty(n)
+        axis = np.empty(n, np.int64)
+        count = np.empty(n, np.int64)
+        cells = np.zeros(n if self.stats is not None else 0, np.int64)
+        first_occupied_cell(np.ascontiguousarray(origins, dtype=np.float64),
+                            np.ascontiguousarray(directions, dtype=np.float64), _per_ray(t_min, n),
+                            self.lo, self.hi, self.size, self.dims, self.start, t, axis, count, cells)
+        if self.stats is not None:
+            self.stats.add(n, False, 0, int(cells.sum()))
+        return t, axis, count
+
+
+def visualize_grid(ctx, origins: np.ndarray, directions: np.ndarray, t_min: float):
+    """Integrator for -visualize_grid: each ray shows the first occupied cell it enters, as an opaque box.
+
+    The face's normal is that of the cell face crossed to enter it (the axis the 3D-DDA stepped last, facing
+    the ray); its colour is COUNT_COLORS by the cell's primitive count, lit like a diffuse material by the
+    scene's lights and ambient light. Planes are not in the grid and are not drawn.
+    """
+    from .integrators import SampleResult
+    from .shading import light_directions, phong
+
+    grid = ctx.accel
+    if not isinstance(grid, GridAccelerator):
+        raise ValueError("-visualize_grid needs the grid accelerator (-grid NX NY NZ)")
+    scene = ctx.scene
+    n = len(origins)
+    t, axis, count = grid.first_occupied(origins, directions, t_min)
+    hit = np.isfinite(t)
+    color = np.broadcast_to(scene.background_color, (n, 3)).copy()
+    normals = np.zeros((n, 3))
+    d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    rows = np.flatnonzero(hit & (axis >= 0))
+    normals[rows, axis[rows]] = -np.sign(d[rows, axis[rows]])
+    inside = hit & (axis < 0)
+    normals[inside] = -d[inside]
+    if hit.any():
+        kd = COUNT_COLORS[np.minimum(count[hit], len(COUNT_COLORS)) - 1]
+        if scene.lights is None:
+            color[hit] = kd
+        else:
+            points = origins[hit] + t[hit, None] * directions[hit]
+            shaded = scene.ambient_light * kd
+            zero = np.zeros_like(kd)
+            for light in scene.lights:
+                to_light, light_color, _ = light_directions(light, points)
+                shaded = shaded + phong(normals[hit], -d[hit], to_light, light_color, kd, zero,
+                                        np.ones(len(kd)))
+            color[hit] = shaded
+    return SampleResult(color, t, normals)
