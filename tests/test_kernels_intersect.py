@@ -1,0 +1,71 @@
+"""Per-primitive tests: the watertight ray-triangle test (Woop, Benthin & Wald 2013)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from durer.kernels.intersect import intersect_triangle
+from durer.query import RaycastingScene
+
+TRI = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def test_hit_gives_t_and_barycentrics_of_vertex1_and_vertex2():
+    t, u, v = intersect_triangle(0.2, 0.3, 2.0, 0.0, 0.0, -1.0, TRI, 0.0, np.inf)
+    assert t == pytest.approx(2.0)
+    assert (u, v) == pytest.approx((0.2, 0.3))
+
+
+def test_both_sides_count_and_t_interval_is_open():
+    t, _, _ = intersect_triangle(0.2, 0.3, -2.0, 0.0, 0.0, 1.0, TRI, 0.0, np.inf)
+    assert t == pytest.approx(2.0)
+    assert intersect_triangle(0.2, 0.3, 2.0, 0.0, 0.0, -1.0, TRI, 0.0, 2.0)[0] == np.inf
+    assert intersect_triangle(0.2, 0.3, 2.0, 0.0, 0.0, -1.0, TRI, 2.0, 5.0)[0] == np.inf
+    assert intersect_triangle(0.2, 0.3, 2.0, 0.0, 0.0, -1.0, TRI, -np.inf, 2.5)[0] == pytest.approx(2.0)
+
+
+def test_misses_outside_edge_on_and_degenerate():
+    assert intersect_triangle(0.8, 0.8, 2.0, 0.0, 0.0, -1.0, TRI, 0.0, np.inf)[0] == np.inf
+    assert intersect_triangle(-0.1, 0.3, 2.0, 0.0, 0.0, -1.0, TRI, 0.0, np.inf)[0] == np.inf
+    assert intersect_triangle(-1.0, 0.3, 0.0, 1.0, 0.0, 0.0, TRI, 0.0, np.inf)[0] == np.inf  # edge-on
+    flat = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]])
+    assert intersect_triangle(0.5, 0.5, 1.0, 0.0, 0.0, -1.0, flat, 0.0, np.inf)[0] == np.inf
+
+
+def test_ray_through_shared_edge_hits_both_triangles():
+    """A quad split along its diagonal: rays exactly on the diagonal hit both halves, never neither."""
+    rng = np.random.default_rng(1)
+    a, b, c, d = np.array([0.0, 0, 0]), np.array([1.0, 0, 0]), np.array([1.0, 1, 0]), np.array([0.0, 1, 0])
+    t1, t2 = np.array([a, b, c]), np.array([a, c, d])
+    origin = np.array([0.3, -0.7, 1.3])
+    for s in rng.random(2000):
+        p = a + s * (c - a)   # a point on the shared edge (rounded: the test must still not lose it)
+        dx, dy, dz = p - origin
+        h1 = intersect_triangle(*origin, dx, dy, dz, t1, 0.0, np.inf)[0]
+        h2 = intersect_triangle(*origin, dx, dy, dz, t2, 0.0, np.inf)[0]
+        assert h1 < np.inf or h2 < np.inf
+
+
+def test_watertight_million_rays_from_inside_closed_icosphere():
+    """Issue 3: a million rays from inside a closed mesh all hit it, including rays aimed exactly at vertices
+    and at points on edges, where a non-watertight test lets rays slip through."""
+    mesh = trimesh.creation.icosphere(subdivisions=3)
+    scene = RaycastingScene()
+    scene.add_triangles(mesh.vertices, mesh.faces)
+    rng = np.random.default_rng(7)
+    n = 1_000_000
+    origins = rng.uniform(-0.5, 0.5, (n, 3))
+    targets = np.empty((n, 3))
+    q = n // 4
+    targets[:q] = mesh.vertices[rng.integers(0, len(mesh.vertices), q)]
+    edges = mesh.edges_unique[rng.integers(0, len(mesh.edges_unique), n - 2 * q)]
+    s = rng.random((len(edges), 1))
+    targets[q:n - q] = (1 - s) * mesh.vertices[edges[:, 0]] + s * mesh.vertices[edges[:, 1]]
+    targets[n - q:] = rng.normal(size=(q, 3))
+    origins[:q // 2] = 0.0  # from the centre straight at vertices too
+    hit = scene.test_occlusions(origins, targets - origins)
+    assert hit.all(), f"{(~hit).sum()} rays escaped"
+    t = scene.cast_rays(origins[:100_000], targets[:100_000] - origins[:100_000])["t_hit"]
+    assert np.isfinite(t).all()

@@ -1,0 +1,210 @@
+"""durer.RaycastingScene: Open3D-style batch queries, instancing, and every ValueError path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+import durer
+from durer.query import RaycastingScene
+
+
+@pytest.fixture(scope="module")
+def sphere_mesh():
+    return trimesh.creation.icosphere(subdivisions=3)
+
+
+@pytest.fixture(scope="module")
+def scene(sphere_mesh):
+    s = RaycastingScene()
+    s.add_triangles(sphere_mesh.vertices, sphere_mesh.faces)
+    s.add_sphere([4.0, 0.0, 0.0], 0.5)
+    return s
+
+
+def _affine(rng) -> np.ndarray:
+    m = np.eye(4)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    m[:3, :3] = q @ np.diag(rng.uniform(0.5, 2.0, 3))
+    m[:3, 3] = rng.uniform(-3, 3, 3)
+    return m
+
+
+def test_exported_from_package():
+    assert durer.RaycastingScene is RaycastingScene
+
+
+def test_cast_rays_fields_and_values(scene):
+    o = np.array([[0.0, 0.0, 5.0], [4.0, 0.0, 5.0], [0.0, 10.0, 5.0]])
+    d = np.array([[0.0, 0.0, -1.0]] * 3)
+    r = scene.cast_rays(o, d)
+    assert set(r) == {"t_hit", "geometry_ids", "primitive_ids", "primitive_uvs", "primitive_normals"}
+    assert r["t_hit"][0] == pytest.approx(4.0, abs=0.01) and r["t_hit"][1] == pytest.approx(4.5)
+    assert r["t_hit"][2] == np.inf
+    assert r["geometry_ids"].tolist() == [0, 1, -1] and r["primitive_ids"][2] == -1 and r["primitive_ids"][1] == 0
+    np.testing.assert_allclose(r["primitive_normals"][1], [0, 0, 1])
+    assert r["primitive_normals"][0] @ [0, 0, 1] > 0.99  # outward (icosphere winding is counter-clockwise)
+    np.testing.assert_array_equal(r["primitive_normals"][2], 0)
+    uv = r["primitive_uvs"][0]
+    assert 0 <= uv[0] <= 1 and 0 <= uv[1] <= 1 and uv.sum() <= 1
+
+
+def test_uvs_reconstruct_hit_point(scene, sphere_mesh):
+    rng = np.random.default_rng(0)
+    o = rng.normal(size=(2000, 3)) * 3
+    d = rng.normal(size=(2000, 3)) * 0.1 - o * 0.1
+    r = scene.cast_rays(o, d)
+    m = r["geometry_ids"] == 0
+    tri = sphere_mesh.vertices[sphere_mesh.faces[r["primitive_ids"][m]]]
+    u, v = r["primitive_uvs"][m].T
+    p = (1 - u - v)[:, None] * tri[:, 0] + u[:, None] * tri[:, 1] + v[:, None] * tri[:, 2]
+    np.testing.assert_allclose(p, o[m] + r["t_hit"][m, None] * d[m], atol=1e-9)
+
+
+def test_leading_shape_six_column_float32_and_noncontiguous(scene):
+    rng = np.random.default_rng(1)
+    rays = np.zeros((4, 5, 6))
+    rays[..., :3] = rng.normal(size=(4, 5, 3)) * 3
+    rays[..., 3:] = -rays[..., :3]
+    r6 = scene.cast_rays(rays)
+    assert r6["t_hit"].shape == (4, 5) and r6["primitive_uvs"].shape == (4, 5, 2)
+    assert r6["primitive_normals"].shape == (4, 5, 3)
+    r2 = scene.cast_rays(rays[..., :3], rays[..., 3:])  # non-contiguous views
+    np.testing.assert_array_equal(r6["t_hit"], r2["t_hit"])
+    r32 = scene.cast_rays(rays.astype(np.float32))
+    np.testing.assert_array_equal(r32["geometry_ids"], r6["geometry_ids"])
+    np.testing.assert_allclose(r32["t_hit"], r6["t_hit"], rtol=1e-5)
+    assert scene.test_occlusions(rays).shape == (4, 5)
+    assert scene.count_intersections(rays).shape == (4, 5)
+    assert scene.cast_rays(np.zeros((0, 6)))["t_hit"].shape == (0,)
+
+
+def test_t_min_t_max_and_occlusion(scene):
+    o, d = np.array([[0.0, 0.0, 5.0]]), np.array([[0.0, 0.0, -1.0]])
+    assert scene.test_occlusions(o, d).tolist() == [True]
+    assert scene.test_occlusions(o, d, t_max=3.9).tolist() == [False]
+    assert scene.cast_rays(o, d, t_min=4.5)["t_hit"][0] == pytest.approx(6.0, abs=0.01)  # the far side
+    assert scene.test_occlusions(o, d, t_min=6.5).tolist() == [False]
+
+
+def test_count_intersections_parity_inside_outside(sphere_mesh):
+    bunny_like = trimesh.creation.torus(1.0, 0.4)
+    s = RaycastingScene()
+    s.add_triangles(bunny_like.vertices, bunny_like.faces)
+    rng = np.random.default_rng(2)
+    points = rng.uniform(-1.6, 1.6, (20_000, 3))
+    dirs = rng.normal(size=points.shape)
+    inside = (s.count_intersections(points, dirs) % 2) == 1
+    np.testing.assert_array_equal(inside, bunny_like.contains(points))
+    assert 0.05 < inside.mean() < 0.5
+
+
+def test_list_intersections_sorted_and_matches_counts(scene):
+    rng = np.random.default_rng(3)
+    o = rng.normal(size=(500, 3)) * 4
+    d = rng.normal(size=(500, 3)) - o * 0.25
+    li = scene.list_intersections(o, d)
+    counts = scene.count_intersections(o, d)
+    np.testing.assert_array_equal(np.diff(li["ray_splits"]), counts)
+    np.testing.assert_array_equal(li["ray_ids"], np.repeat(np.arange(500), counts))
+    for i in np.nonzero(counts > 1)[0][:50]:
+        t = li["t_hit"][li["ray_splits"][i]:li["ray_splits"][i + 1]]
+        assert np.all(np.diff(t) >= 0)
+    first = li["ray_splits"][:-1][counts > 0]
+    np.testing.assert_allclose(li["t_hit"][first], scene.cast_rays(o, d)["t_hit"][counts > 0])
+    assert (counts[scene.cast_rays(o, d)["geometry_ids"] == 1] >= 1).all()
+
+
+def test_instances_equal_moved_vertices(sphere_mesh):
+    """Issue 3: an instanced, transformed mesh answers exactly like a copy with its vertices moved."""
+    rng = np.random.default_rng(4)
+    mesh = trimesh.creation.box(extents=[1.0, 2.0, 0.5])
+    mesh = trimesh.util.concatenate([mesh, sphere_mesh])
+    mats = [_affine(rng) for _ in range(3)]
+    mats[2][:3, :3] = mats[2][:3, :3] @ np.diag([-1.0, 1.0, 1.0])  # a mirror flips the winding
+    inst, moved = RaycastingScene(), RaycastingScene()
+    first = inst.add_triangles(mesh.vertices, mesh.faces, transform=mats[0])
+    for m in mats[1:]:
+        inst.add_instance(first, m)
+    for m in mats:
+        moved.add_triangles(mesh.vertices @ m[:3, :3].T + m[:3, 3], mesh.faces)
+    assert inst.nbytes < moved.nbytes * 0.5  # the mesh is stored once
+    o = rng.uniform(-6, 6, (20_000, 3))
+    d = rng.uniform(-2, 2, (20_000, 3)) - o
+    a, b = inst.cast_rays(o, d), moved.cast_rays(o, d)
+    np.testing.assert_array_equal(np.isfinite(a["t_hit"]), np.isfinite(b["t_hit"]))
+    hit = np.isfinite(a["t_hit"])
+    assert hit.mean() > 0.2
+    np.testing.assert_allclose(a["t_hit"][hit], b["t_hit"][hit], rtol=1e-9)
+    same = a["primitive_ids"] == b["primitive_ids"]
+    assert same.mean() > 0.999
+    np.testing.assert_array_equal(a["geometry_ids"], b["geometry_ids"])
+    np.testing.assert_allclose(a["primitive_normals"][same], b["primitive_normals"][same], atol=1e-9)
+    np.testing.assert_allclose(a["primitive_uvs"][same & hit], b["primitive_uvs"][same & hit], atol=1e-7)
+    np.testing.assert_array_equal(inst.count_intersections(o, d), moved.count_intersections(o, d))
+
+
+def test_transformed_sphere_is_an_ellipsoid():
+    s = RaycastingScene()
+    m = np.diag([2.0, 1.0, 1.0, 1.0])
+    s.add_sphere([0.0, 0.0, 0.0], 1.0, transform=m)
+    r = s.cast_rays(np.array([[5.0, 0, 0], [0, 5.0, 0]]), np.array([[-1.0, 0, 0], [0, -1.0, 0]]))
+    np.testing.assert_allclose(r["t_hit"], [3.0, 4.0])
+    np.testing.assert_allclose(r["primitive_normals"], [[1, 0, 0], [0, 1, 0]], atol=1e-12)
+    assert s.count_intersections(np.zeros((1, 3)), np.array([[0.0, 0, 1]])).tolist() == [1]
+
+
+def test_add_mesh_from_trimesh_and_path(tmp_path, sphere_mesh):
+    path = tmp_path / "ico.ply"
+    sphere_mesh.export(path)
+    s = RaycastingScene()
+    assert s.add_mesh(sphere_mesh) == 0 and s.add_mesh(path) == 1 and s.add_mesh(str(path)) == 2
+    with pytest.raises(FileNotFoundError):
+        s.add_mesh(tmp_path / "missing.ply")
+    with pytest.raises(ValueError, match="trimesh"):
+        s.add_mesh(42)
+
+
+def test_empty_scene_misses():
+    s = RaycastingScene()
+    r = s.cast_rays(np.zeros((2, 3)), np.ones((2, 3)))
+    assert np.isinf(r["t_hit"]).all() and (r["geometry_ids"] == -1).all()
+    assert not s.test_occlusions(np.zeros((2, 6)) + [0, 0, 0, 1, 0, 0]).any()
+    assert s.list_intersections(np.zeros((2, 3)), np.ones((2, 3)))["ray_splits"].tolist() == [0, 0, 0]
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda s: s.add_triangles(np.zeros((3, 2)), [[0, 1, 2]]), "shape"),
+    (lambda s: s.add_triangles(np.zeros((3, 3)), [[0, 1]]), "shape"),
+    (lambda s: s.add_triangles(np.zeros((3, 3)), [[0, 1, 3]]), "out of range"),
+    (lambda s: s.add_triangles(np.zeros((3, 3)), [[0, -1, 2]]), "out of range"),
+    (lambda s: s.add_triangles(np.zeros((3, 3)), [[0, 1.5, 2]]), "integer"),
+    (lambda s: s.add_triangles([[0, 0, np.nan], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]), "NaN"),
+    (lambda s: s.add_triangles([[0, 0, np.inf], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]), "infinity"),
+    (lambda s: s.add_triangles(np.array([["a"] * 3] * 3), [[0, 1, 2]]), "numeric"),
+    (lambda s: s.add_sphere([0, 0], 1.0), "shape"),
+    (lambda s: s.add_sphere([0, 0, 0], -1.0), "radius"),
+    (lambda s: s.add_sphere([0, 0, 0], np.nan), "radius"),
+    (lambda s: s.add_sphere([0, 0, 0], 1.0, transform=np.eye(3)), "4x4"),
+    (lambda s: s.add_sphere([0, 0, 0], 1.0, transform=np.zeros((4, 4)) + np.eye(4) * [1, 1, 0, 1]), "singular"),
+    (lambda s: s.add_sphere([0, 0, 0], 1.0, transform=np.ones((4, 4))), "affine"),
+    (lambda s: s.add_sphere([0, 0, 0], 1.0, transform=np.eye(4) * np.nan), "NaN"),
+    (lambda s: s.add_instance(7, np.eye(4)), "no geometry"),
+    (lambda s: s.cast_rays(np.zeros((2, 4))), r"\(\.\.\., 6\)"),
+    (lambda s: s.cast_rays(np.zeros((2, 3)), np.ones((3, 3))), "same shape"),
+    (lambda s: s.cast_rays(np.zeros((2, 2)), np.ones((2, 2))), "shape"),
+    (lambda s: s.cast_rays(np.zeros((2, 3)), np.zeros((2, 3))), "zero"),
+    (lambda s: s.cast_rays([[0, 0, np.nan]], [[0, 0, 1]]), "NaN"),
+    (lambda s: s.cast_rays([[0, 0, 0]], [[0, 0, np.inf]]), "infinity"),
+    (lambda s: s.cast_rays([[0, 0, 0]], [[0, 0, 1]], t_min=np.nan), "t_min"),
+    (lambda s: s.cast_rays([[0, 0, 0]], [[0, 0, 1]], t_max=[1.0, 2.0]), "t_max"),
+    (lambda s: s.test_occlusions(np.zeros((1, 3)), np.zeros((1, 3))), "zero"),
+    (lambda s: s.count_intersections(np.zeros((1, 5))), "6"),
+    (lambda s: s.list_intersections([[0, 0, 0]], [[np.nan, 0, 1]]), "NaN"),
+])
+def test_value_errors(call, match):
+    s = RaycastingScene()
+    s.add_sphere([0, 0, 0], 1.0)
+    with pytest.raises(ValueError, match=match):
+        call(s)
