@@ -288,7 +288,7 @@ def main(argv: list[str] | None = None) -> None:
     if not (args.quick or args.no_scaling):
         scaling(meshes, min(res, 512), args.repeat)
     if not (args.quick or args.no_startup):
-        startup(SHARED / "scenes" / "mit6837" / "scene1_01.txt")
+        startup(SHARED / "scenes" / "mit6837" / "assignment1" / "scene1_01.txt")
 
 
 if __name__ == "__main__":
