@@ -13,13 +13,21 @@ from .cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, Perspect
 from .errors import DurerError, SceneError, UsageError
 from .lights import DirectionalLight, PointLight
 from .materials import Material, PhongMaterial
-from .query import RaycastingScene
 from .render import RenderResult, render
 from .scene import Group, Scene, Transform
 from .shapes import Plane, Sphere, Triangle, TriangleMesh
 from .textures import Checkerboard, Marble, Noise, Wood
 
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    """Import the query API on first use: the renderer and the CLI do not need it, and it costs start-up time."""
+    if name == "RaycastingScene":
+        from .query import RaycastingScene
+
+        return RaycastingScene
+    raise AttributeError(f"module 'durer' has no attribute {name!r}")
 
 
 def load(path: str | os.PathLike, mesh_path: list[str] | None = None) -> Scene:
