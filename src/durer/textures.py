@@ -1,6 +1,7 @@
 """Solid-texture materials of assignment 6: each blends two other materials (by index) in texture space.
 
-`matrix` maps texture space to world space, as a Transform does; a world point p is looked up at inverse(matrix) @ p.
+`matrix` is the material's `Transform { }` composed as for objects; the course applies it to the world point directly
+("multiply the intersection point by the matrix"), so a world point p is looked up at matrix @ p (texturing.py).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ class Checkerboard:
 
 @dataclass
 class Noise:
-    """Perlin's improved noise summed over octaves, blending material1 (low) and material2 (high)."""
+    """Perlin's improved noise N summed over octaves: material1 gets clamp(N + 1/2, 0, 1), material2 the rest."""
 
     material1: int
     material2: int
