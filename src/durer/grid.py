@@ -19,7 +19,7 @@ import numpy as np
 
 from .compile import CompiledScene
 from .hits import Hits, _per_ray
-from .kernels.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell
+from .kernels.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
 from .scene import Group, Scene, Transform
 from .shapes import Sphere
 from .stats import RayStats
@@ -72,10 +72,11 @@ def _sphere_boxes(cs: CompiledScene, as_box: np.ndarray) -> tuple[np.ndarray, np
 class GridAccelerator:
     """A uniform grid of nx x ny x nz cells over the scene's bounded primitives, walked with 3D-DDA.
 
-    `sphere_as_box` (S,) says which spheres go in by their box (the course: those under a Transform); by
-    default the spheres whose world-to-object matrix is not the identity. `exact_triangles` keeps a triangle
-    only in the cells its plane really crosses (separating-axis test) instead of all cells of its box: fewer
-    tests, but not what the course's images show. Pass a RayStats as `stats` to count rays, tests and cells.
+    `sphere_as_box` (S,) says which spheres go in by their box (the course: those under a Transform); the
+    spheres whose world-to-object matrix is not the identity always do, and by default only they.
+    `exact_triangles` keeps a triangle only in the cells its plane really crosses (separating-axis test)
+    instead of all cells of its box: fewer tests, but not what the course's images show. Pass a RayStats as
+    `stats` to count rays, tests and cells.
     """
 
     name = "grid"
@@ -87,11 +88,12 @@ class GridAccelerator:
             raise ValueError(f"grid needs three positive cell counts, got {dims}")
         self.cs = cs
         self.dims = np.array(dims, dtype=np.int64)
+        identity = np.zeros((3, 4))
+        identity[:, :3] = np.eye(3)
+        moved = ~np.all(cs.sphere_world_to_object == identity, axis=(1, 2))  # rasterising needs world = object
         if sphere_as_box is None:
-            identity = np.zeros((3, 4))
-            identity[:, :3] = np.eye(3)
-            sphere_as_box = ~np.all(cs.sphere_world_to_object == identity, axis=(1, 2))
-        self.sphere_as_box = np.asarray(sphere_as_box, dtype=bool).reshape(len(cs.sphere_radius))
+            sphere_as_box = moved
+        self.sphere_as_box = np.asarray(sphere_as_box, dtype=bool).reshape(len(cs.sphere_radius)) | moved
         sph_lo, sph_hi = _sphere_boxes(cs, self.sphere_as_box)
         self.lo, self.hi = self._bounds(cs, sph_lo, sph_hi)
         self.size = (self.hi - self.lo) / self.dims
@@ -130,6 +132,17 @@ class GridAccelerator:
         nx, ny = int(self.dims[0]), int(self.dims[1])
         c = (k * ny + j) * nx + i
         return [(1, int(x)) if x >= 0 else (2, int(-x - 1)) for x in self.items[self.start[c]:self.start[c + 1]]]
+
+    def walk(self, origin, direction, t_min: float = 0.0, t_max: float = np.inf):
+        """The 3D-DDA walk of one ray, as the kernels take it: cells (K,3) as (i, j, k) in order, the t where
+        the ray enters each, and the axis of the face it enters through (-1: the ray starts in that cell)."""
+        most = int(self.dims.sum()) + 3
+        cells = np.empty((most, 3), np.int64)
+        t = np.empty(most)
+        axis = np.empty(most, np.int64)
+        n = walk_cells(np.asarray(origin, np.float64), np.asarray(direction, np.float64), float(t_min),
+                       float(t_max), self.lo, self.hi, self.size, self.dims, cells, t, axis)
+        return cells[:n], t[:n], axis[:n]
 
     def _geometry(self):
         cs = self.cs

@@ -71,7 +71,7 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     accel = BruteForce(cs)
     # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
     # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
-    stats = RayStats() if options.stats else None
+    stats = RayStats(bounds=cs.bounds()) if options.stats else None
     if options.grid is not None:
         from .grid import GridAccelerator, spheres_under_transform
 

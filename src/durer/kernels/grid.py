@@ -229,11 +229,70 @@ def _clip(o, d, lo, hi, t0, t1):
 
 @nb.njit(cache=True, inline="always")
 def _plane_t(o, d, a, lo, size, idx, step):
-    """t where the ray leaves cell idx along axis a (inf when the ray is parallel to that axis' planes)."""
+    """t where the ray leaves cell idx along axis a (inf when the ray is parallel to that axis' planes).
+    Computed from the boundary's position each time, not accumulated, so long walks do not drift."""
     if step == 0:
         return np.inf
     edge = idx + 1 if step > 0 else idx
     return (lo[a] + edge * size[a] - o[a]) / d[a]
+
+
+@nb.njit(cache=True, inline="always")
+def _walk_start(o, d, t0, lo, size, dims, idx, step, tnext):
+    """3D-DDA set-up (the course's initializeRayMarch): the cell holding o + t0 d, the step direction along
+    each axis and the t of the next boundary along each axis."""
+    for a in range(3):
+        idx[a] = _index(o[a] + t0 * d[a], lo[a], size[a], dims[a])
+        step[a] = 1 if d[a] > 0.0 else (-1 if d[a] < 0.0 else 0)
+        tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
+
+
+@nb.njit(cache=True, inline="always")
+def _walk_axis(tnext):
+    """The axis whose boundary the ray meets first (the lowest axis on a tie): the current cell ends there."""
+    a = 0
+    if tnext[1] < tnext[a]:
+        a = 1
+    if tnext[2] < tnext[a]:
+        a = 2
+    return a
+
+
+@nb.njit(cache=True, inline="always")
+def _walk_next(o, d, lo, size, dims, idx, step, tnext, a):
+    """Step into the next cell across axis a (the course's nextCell); False once the walk leaves the grid."""
+    idx[a] += step[a]
+    if idx[a] < 0 or idx[a] >= dims[a]:
+        return False
+    tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
+    return True
+
+
+@nb.njit(cache=True)
+def walk_cells(o, d, t_min, t_max, lo, hi, size, dims, cells, t_enter, axis_enter):
+    """The cells one ray visits, in order, as every kernel here walks them: fills cells (K,3) with their
+    (i, j, k), t_enter (K,) with the t where the ray enters each and axis_enter (K,) with the axis of the face
+    it enters through (-1 for a first cell the ray starts in); returns how many (at most K) were written."""
+    t0, t1, axis = _clip(o, d, lo, hi, t_min, t_max)
+    if not (t0 <= t1 and t0 > -np.inf and t1 < np.inf):
+        return 0
+    idx = np.empty(3, dtype=np.int64)
+    step = np.empty(3, dtype=np.int64)
+    tnext = np.empty(3)
+    _walk_start(o, d, t0, lo, size, dims, idx, step, tnext)
+    n = 0
+    t = t0
+    while n < cells.shape[0]:
+        cells[n, 0], cells[n, 1], cells[n, 2] = idx[0], idx[1], idx[2]
+        t_enter[n] = t
+        axis_enter[n] = axis
+        n += 1
+        a = _walk_axis(tnext)
+        t = tnext[a]
+        axis = a
+        if t >= t1 or not _walk_next(o, d, lo, size, dims, idx, step, tnext, a):
+            break
+    return n
 
 
 @nb.njit(cache=True, parallel=True)
@@ -267,17 +326,14 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, star
             idx = np.empty(3, dtype=np.int64)
             step = np.empty(3, dtype=np.int64)
             tnext = np.empty(3)
-            for a in range(3):
-                idx[a] = _index(o[a] + t0 * d[a], lo[a], size[a], dims[a])
-                step[a] = 1 if d[a] > 0.0 else (-1 if d[a] < 0.0 else 0)
-                tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
+            _walk_start(o, d, t0, lo, size, dims, idx, step, tnext)
             while True:
                 cells += 1
                 c = (idx[2] * ny + idx[1]) * nx + idx[0]
                 for p in range(start[c], start[c + 1]):
                     item = items[p]
                     tests += 1
-                    cap = np.nextafter(best, np.inf)
+                    cap = np.nextafter(best, np.inf)  # equal t must reach _better, for the tie rule
                     if item >= 0:
                         t, u, v = intersect_triangle(o[0], o[1], o[2], d[0], d[1], d[2], tris[item], tlo, cap)
                         if _better(t, TRIANGLE, item, best, bkind, bprim):
@@ -287,18 +343,12 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, star
                         t = sphere_hit_in_object_space(o, d, sph_center[s], sph_radius[s], sph_w2o[s], tlo, cap)
                         if _better(t, SPHERE, s, best, bkind, bprim):
                             best, bkind, bprim, bu, bv = t, SPHERE, s, 0.0, 0.0
-                a = 0
-                if tnext[1] < tnext[a]:
-                    a = 1
-                if tnext[2] < tnext[a]:
-                    a = 2
-                exit_t = tnext[a]
-                if best < exit_t - slack or exit_t >= t1:
+                a = _walk_axis(tnext)
+                # early exit: the best hit lies inside the cells walked so far, so no later cell can beat it
+                if best < tnext[a] - slack or tnext[a] >= t1:
                     break
-                idx[a] += step[a]
-                if idx[a] < 0 or idx[a] >= dims[a]:
+                if not _walk_next(o, d, lo, size, dims, idx, step, tnext, a):
                     break
-                tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
         if bkind == 0:
             t_out[r] = np.inf
         else:
@@ -337,10 +387,7 @@ def any_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, start, i
             idx = np.empty(3, dtype=np.int64)
             step = np.empty(3, dtype=np.int64)
             tnext = np.empty(3)
-            for a in range(3):
-                idx[a] = _index(o[a] + t0 * d[a], lo[a], size[a], dims[a])
-                step[a] = 1 if d[a] > 0.0 else (-1 if d[a] < 0.0 else 0)
-                tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
+            _walk_start(o, d, t0, lo, size, dims, idx, step, tnext)
             while not hit:
                 cells += 1
                 c = (idx[2] * ny + idx[1]) * nx + idx[0]
@@ -355,17 +402,9 @@ def any_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, start, i
                     if t < np.inf:
                         hit = True
                         break
-                a = 0
-                if tnext[1] < tnext[a]:
-                    a = 1
-                if tnext[2] < tnext[a]:
-                    a = 2
-                if tnext[a] >= t1:
+                a = _walk_axis(tnext)
+                if tnext[a] >= t1 or not _walk_next(o, d, lo, size, dims, idx, step, tnext, a):
                     break
-                idx[a] += step[a]
-                if idx[a] < 0 or idx[a] >= dims[a]:
-                    break
-                tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
         out[r] = hit
         if count:
             n_tests[r] = tests
@@ -395,10 +434,7 @@ def first_occupied_cell(origins, directions, t_min, lo, hi, size, dims, start,
             idx = np.empty(3, dtype=np.int64)
             step = np.empty(3, dtype=np.int64)
             tnext = np.empty(3)
-            for a in range(3):
-                idx[a] = _index(o[a] + t0 * d[a], lo[a], size[a], dims[a])
-                step[a] = 1 if d[a] > 0.0 else (-1 if d[a] < 0.0 else 0)
-                tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
+            _walk_start(o, d, t0, lo, size, dims, idx, step, tnext)
             t_enter = t0
             while True:
                 cells += 1
@@ -409,18 +445,10 @@ def first_occupied_cell(origins, directions, t_min, lo, hi, size, dims, start,
                     axis_out[r] = axis
                     count_out[r] = n
                     break
-                a = 0
-                if tnext[1] < tnext[a]:
-                    a = 1
-                if tnext[2] < tnext[a]:
-                    a = 2
-                if tnext[a] >= t1:
-                    break
-                idx[a] += step[a]
-                if idx[a] < 0 or idx[a] >= dims[a]:
-                    break
+                a = _walk_axis(tnext)
                 t_enter = tnext[a]
                 axis = a
-                tnext[a] = _plane_t(o, d, a, lo, size, idx[a], step[a])
+                if t_enter >= t1 or not _walk_next(o, d, lo, size, dims, idx, step, tnext, a):
+                    break
         if count:
             n_cells[r] = cells
