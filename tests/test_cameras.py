@@ -66,14 +66,17 @@ def test_perspective_centre_and_corner_rays():
     assert cam.t_min == 0.0
 
 
-def test_non_square_images_keep_square_pixels_and_span_the_shorter_side():
+def test_non_square_images_keep_square_pixels_and_crop_the_shorter_side():
     cam = OrthographicCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), size=2)
     o, _, _ = cam.generate_rays(pixel_centers(4, 2).reshape(-1, 2), 4, 2)
     o = o.reshape(2, 4, 3)
     step_x = o[0, 1, 0] - o[0, 0, 0]
     step_y = o[0, 0, 1] - o[1, 0, 1]
-    assert step_x == pytest.approx(step_y) == pytest.approx(1.0)  # shorter side (2 px) spans size 2
-    np.testing.assert_allclose(o[0, 0, :2], [-1.5, 0.5])
+    assert step_x == pytest.approx(step_y) == pytest.approx(0.5)  # longer side (4 px) spans size 2
+    np.testing.assert_allclose(o[0, 0, :2], [-0.75, 0.25])
+    # a tall image: the height spans the size
+    o, _, _ = cam.generate_rays(pixel_centers(2, 4).reshape(-1, 2), 2, 4)
+    np.testing.assert_allclose(o.reshape(4, 2, 3)[0, 0, :2], [-0.25, 0.75])
 
 
 def test_fisheye_centre_edge_and_outside():

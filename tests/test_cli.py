@@ -43,9 +43,9 @@ def test_course_command_writes_all_images(scene, tmp_path, capsys):
     assert code == 0, err
     img = np.asarray(Image.open(out))
     assert img.shape == (10, 20, 3) and img[5, 10].tolist() == [255, 0, 0] and img[0, 0].tolist() == [0, 0, 0]
-    # the pixel centre next to the image centre is 0.25 from the axis: t = 10 - sqrt(1 - 2 * 0.25**2)
-    assert np.asarray(Image.open(depth))[5, 10, 0] == int(np.sqrt(1 - 2 * 0.25**2) * 255)
-    assert np.asarray(Image.open(normals))[5, 10, 2] == int(np.sqrt(1 - 2 * 0.25**2) * 255)
+    # size 5 spans the longer side (20 px): the pixel centre next to the image centre is 0.125 from the axis
+    assert np.asarray(Image.open(depth))[5, 10, 0] == int(np.sqrt(1 - 2 * 0.125**2) * 255)
+    assert np.asarray(Image.open(normals))[5, 10, 2] == int(np.sqrt(1 - 2 * 0.125**2) * 255)
 
 
 def test_course_depth_accepts_negative_numbers(scene, tmp_path, capsys):

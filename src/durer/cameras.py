@@ -2,7 +2,8 @@
 
 Film points are given in pixel units, x to the right and y *up* from the bottom-left corner of the image,
 so the centre of pixel column i, row j (counted from the bottom) is (i + 0.5, j + 0.5). The size (orthographic)
-or field of view (perspective, fisheye) spans the *shorter* image side; pixels stay square.
+or field of view (perspective, fisheye) spans the *longer* image side and the shorter one is cropped, as the course
+does ("for non-square image ratios, just crop the screen coordinates"); pixels stay square.
 """
 
 from __future__ import annotations
@@ -41,11 +42,11 @@ def _finite_point(p) -> np.ndarray:
     return a
 
 
-def _film_offsets(points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    """Film points in pixels -> offsets from the image centre in units of the shorter side."""
+def _film_offsets(points: np.ndarray, width: int, height: int, longer: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Film points in pixels -> offsets from the image centre in units of the longer (or shorter) side."""
     p = np.asarray(points, dtype=np.float64)
-    short = float(min(width, height))
-    return (p[..., 0] - 0.5 * width) / short, (p[..., 1] - 0.5 * height) / short
+    side = float(max(width, height) if longer else min(width, height))
+    return (p[..., 0] - 0.5 * width) / side, (p[..., 1] - 0.5 * height) / side
 
 
 def pixel_centers(width: int, height: int) -> np.ndarray:
@@ -57,7 +58,7 @@ def pixel_centers(width: int, height: int) -> np.ndarray:
 
 @dataclass
 class OrthographicCamera:
-    """Parallel rays along `direction`; the film is a `size` x `size` square (shorter side) around `center`.
+    """Parallel rays along `direction`; the film is a `size` x `size` square (longer side) around `center`.
 
     Its rays start "at infinity" (t_min = -inf), so objects behind the center are seen, as the course specifies.
     """
@@ -86,7 +87,7 @@ class OrthographicCamera:
 
 @dataclass
 class PerspectiveCamera:
-    """A pinhole at `center`; `angle` is the full field of view in degrees across the shorter image side.
+    """A pinhole at `center`; `angle` is the full field of view in degrees across the longer image side.
 
     Rays go through a flat virtual screen (not interpolated angles), directions are unit length, t_min = 0.
     """
@@ -117,8 +118,8 @@ class PerspectiveCamera:
 @dataclass
 class FisheyeCamera:
     """Equidistant fisheye: the angle from the view direction grows linearly with the distance from the
-    image centre, reaching `angle`/2 at the middle of the shorter side's edge (angle may exceed 180).
-    Film points outside that circle get no ray."""
+    image centre, reaching `angle`/2 at the middle of the shorter side's edge (angle may exceed 180), so the
+    whole image circle is in the picture. Film points outside that circle get no ray."""
 
     center: np.ndarray
     direction: np.ndarray
@@ -135,7 +136,7 @@ class FisheyeCamera:
         self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
 
     def generate_rays(self, points: np.ndarray, width: int, height: int):
-        sx, sy = _film_offsets(points, width, height)
+        sx, sy = _film_offsets(points, width, height, longer=False)
         r = np.hypot(sx, sy)
         theta = r * np.radians(self.angle)  # r = 0.5 at the edge -> angle / 2
         phi = np.arctan2(sy, sx)

@@ -11,6 +11,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import film
+from .bvh import BVHAccelerator
 from .compile import compile_scene
 from .hits import BruteForce
 from .integrators import RenderContext, SampleResult, raycast
@@ -19,7 +20,7 @@ from .options import RenderOptions
 from .scene import Scene
 from .stats import CountingAccelerator, RayStats
 
-CHUNK = 1 << 15  # rays per batch: big enough to keep the kernels busy, small enough for a live progress bar
+CHUNK = 1 << 13  # rays per batch: enough to keep the kernels busy, few enough for a live progress bar
 
 
 @dataclass
@@ -68,7 +69,7 @@ class RenderResult:
 def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     """Compile the scene and build its accelerator."""
     cs = compile_scene(scene)
-    accel = BruteForce(cs)
+    accel = BVHAccelerator(cs)
     # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
     # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
     stats = RayStats(bounds=cs.bounds()) if options.stats else None
