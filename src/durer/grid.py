@@ -97,6 +97,8 @@ class GridAccelerator:
         sph_lo, sph_hi = _sphere_boxes(cs, self.sphere_as_box)
         self.lo, self.hi = self._bounds(cs, sph_lo, sph_hi)
         self.size = (self.hi - self.lo) / self.dims
+        pad = 1e-9 * float(np.max(self.hi - self.lo))
+        self.box = np.array([self.lo - pad, self.hi + pad])  # rays are clipped to this (see kernels._clip)
         self.start, self.items = build_cells(cs.triangles, exact_triangles, cs.sphere_center, cs.sphere_radius,
                                              sph_lo, sph_hi, self.sphere_as_box, self.lo, self.size, self.dims)
         self.stats = stats
@@ -141,12 +143,12 @@ class GridAccelerator:
         t = np.empty(most)
         axis = np.empty(most, np.int64)
         n = walk_cells(np.asarray(origin, np.float64), np.asarray(direction, np.float64), float(t_min),
-                       float(t_max), self.lo, self.hi, self.size, self.dims, cells, t, axis)
+                       float(t_max), self.lo, self.box, self.size, self.dims, cells, t, axis)
         return cells[:n], t[:n], axis[:n]
 
     def _geometry(self):
         cs = self.cs
-        return (self.lo, self.hi, self.size, self.dims, self.start, self.items, cs.triangles, cs.sphere_center,
+        return (self.lo, self.box, self.size, self.dims, self.start, self.items, cs.triangles, cs.sphere_center,
                 cs.sphere_radius, cs.sphere_world_to_object, cs.plane_normal, cs.plane_offset)
 
     def _counters(self, n: int) -> tuple[bool, np.ndarray, np.ndarray]:
@@ -179,15 +181,17 @@ class GridAccelerator:
 
     def first_occupied(self, origins, directions, t_min=0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per ray: entry t of the first cell holding a primitive (inf if none), the axis of the face it
-        enters through (-1 when the ray starts inside that cell), and the cell's primitive count."""
+        enters through (-1 when the ray starts inside that cell), and the cell's primitive count. Clipped to
+        the exact grid box, so the entry t of a boundary cell is that of the box's face."""
         n = len(origins)
         t = np.empty(n)
         axis = np.empty(n, np.int64)
         count = np.empty(n, np.int64)
         cells = np.zeros(n if self.stats is not None else 0, np.int64)
+        exact_box = np.array([self.lo, self.hi])
         first_occupied_cell(np.ascontiguousarray(origins, dtype=np.float64),
                             np.ascontiguousarray(directions, dtype=np.float64), _per_ray(t_min, n),
-                            self.lo, self.hi, self.size, self.dims, self.start, t, axis, count, cells)
+                            self.lo, exact_box, self.size, self.dims, self.start, t, axis, count, cells)
         if self.stats is not None:
             self.stats.add(n, False, 0, int(cells.sum()))
         return t, axis, count

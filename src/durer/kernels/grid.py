@@ -9,6 +9,7 @@ Rays walk the cells with Amanatides & Woo's 3D-DDA. The closest-hit walk keeps t
 stops only once that hit lies before the end of the current cell: no unvisited cell can then hold a closer
 one. Ties in t go to the (kind, index) that the brute-force loop would keep, so the results are identical.
 
+The kernels take the grid's origin `lo`, cell `size` and `dims`, and `box` (2,3): the box rays are clipped to.
 Every kernel takes `count`: when True it writes per-ray counts of primitive tests and cells visited into
 `n_tests` / `n_cells` (one slot per ray, summed by the caller, so parallel rays never share a counter); when
 False those arrays may be empty and nothing is counted.
@@ -208,7 +209,9 @@ def _better(t, kind, prim, best, bkind, bprim):
 
 @nb.njit(cache=True, inline="always")
 def _clip(o, d, lo, hi, t0, t1):
-    """[t0, t1] clipped to the box [lo, hi] (slabs); returns (t0, t1, axis of the entry face or -1)."""
+    """[t0, t1] clipped to the box [lo, hi] (slabs); returns (t0, t1, axis of the entry face or -1).
+    The kernels clip to the grid box grown by a hair (`box`), so a ray that only touches the box - aimed at
+    a vertex on its corner, say - is not lost to rounding; the walk clamps it into the boundary cells."""
     axis = -1
     for a in range(3):
         if d[a] != 0.0:
@@ -269,11 +272,11 @@ def _walk_next(o, d, lo, size, dims, idx, step, tnext, a):
 
 
 @nb.njit(cache=True)
-def walk_cells(o, d, t_min, t_max, lo, hi, size, dims, cells, t_enter, axis_enter):
+def walk_cells(o, d, t_min, t_max, lo, box, size, dims, cells, t_enter, axis_enter):
     """The cells one ray visits, in order, as every kernel here walks them: fills cells (K,3) with their
     (i, j, k), t_enter (K,) with the t where the ray enters each and axis_enter (K,) with the axis of the face
     it enters through (-1 for a first cell the ray starts in); returns how many (at most K) were written."""
-    t0, t1, axis = _clip(o, d, lo, hi, t_min, t_max)
+    t0, t1, axis = _clip(o, d, box[0], box[1], t_min, t_max)
     if not (t0 <= t1 and t0 > -np.inf and t1 < np.inf):
         return 0
     idx = np.empty(3, dtype=np.int64)
@@ -296,7 +299,7 @@ def walk_cells(o, d, t_min, t_max, lo, hi, size, dims, cells, t_enter, axis_ente
 
 
 @nb.njit(cache=True, parallel=True)
-def closest_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, start, items,
+def closest_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, start, items,
                      tris, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset,
                      t_out, kind_out, prim_out, u_out, v_out, count, n_tests, n_cells):
     """Closest hit of every ray (the outputs of kernels.brute.closest_hit_all), parallel over rays."""
@@ -320,7 +323,7 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, star
             tests += 1
             if _better(t, PLANE, k, best, bkind, bprim):
                 best, bkind, bprim = t, PLANE, k
-        t0, t1, _ = _clip(o, d, lo, hi, tlo, t_max[r])
+        t0, t1, _ = _clip(o, d, box[0], box[1], tlo, t_max[r])
         if items.shape[0] > 0 and t0 <= t1 and t0 > -np.inf and t1 < np.inf:
             slack = SLACK * (t1 - t0 + 1e-300)
             idx = np.empty(3, dtype=np.int64)
@@ -363,7 +366,7 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, star
 
 
 @nb.njit(cache=True, parallel=True)
-def any_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, start, items,
+def any_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, start, items,
                  tris, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, out, count, n_tests, n_cells):
     """out[r] = True when ray r hits anything with t_min < t < t_max; stops at the first hit found."""
     nx, ny = dims[0], dims[1]
@@ -382,7 +385,7 @@ def any_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, start, i
                                tlo, thi) < np.inf:
                 hit = True
                 break
-        t0, t1, _ = _clip(o, d, lo, hi, tlo, thi)
+        t0, t1, _ = _clip(o, d, box[0], box[1], tlo, thi)
         if not hit and items.shape[0] > 0 and t0 <= t1 and t0 > -np.inf and t1 < np.inf:
             idx = np.empty(3, dtype=np.int64)
             step = np.empty(3, dtype=np.int64)
@@ -412,7 +415,7 @@ def any_hit_grid(origins, directions, t_min, t_max, lo, hi, size, dims, start, i
 
 
 @nb.njit(cache=True, parallel=True)
-def first_occupied_cell(origins, directions, t_min, lo, hi, size, dims, start,
+def first_occupied_cell(origins, directions, t_min, lo, box, size, dims, start,
                         t_out, axis_out, count_out, n_cells):
     """For -visualize_grid: where each ray enters the first cell holding any primitive.
 
@@ -429,7 +432,7 @@ def first_occupied_cell(origins, directions, t_min, lo, hi, size, dims, start,
         axis_out[r] = -1
         count_out[r] = 0
         cells = 0
-        t0, t1, axis = _clip(o, d, lo, hi, t_min[r], np.inf)
+        t0, t1, axis = _clip(o, d, box[0], box[1], t_min[r], np.inf)
         if t0 <= t1 and t0 > -np.inf and t1 < np.inf:
             idx = np.empty(3, dtype=np.int64)
             step = np.empty(3, dtype=np.int64)
