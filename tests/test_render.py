@@ -96,3 +96,36 @@ def test_unknown_option():
 def test_nan_and_infinity_in_scene_objects_are_value_errors(make):
     with pytest.raises(ValueError):
         make()
+
+
+class _FakeTerminal:
+    """A stderr stand-in that says it is a terminal and records what is written."""
+
+    def __init__(self, tty: bool):
+        self.tty = tty
+        self.text = ""
+
+    def isatty(self):
+        return self.tty
+
+    def write(self, s):
+        self.text += s
+
+    def flush(self):
+        pass
+
+
+@pytest.mark.parametrize("tty, quiet, shown", [(True, False, True), (True, True, False), (False, False, False)])
+def test_progress_bar_only_on_a_terminal_and_never_when_quiet(monkeypatch, tty, quiet, shown):
+    import durer.render as render_module
+
+    fake = _FakeTerminal(tty)
+    monkeypatch.setattr(render_module.sys, "stderr", fake)
+    bar = render_module._progress(100, quiet)
+    assert bar.disable is not shown
+    if shown:
+        assert bar.delay == pytest.approx(1.0)  # appears only for renders longer than about a second
+    bar.update(100)
+    bar.close()
+    if not shown:
+        assert fake.text == ""
