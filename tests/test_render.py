@@ -117,8 +117,9 @@ class _FakeTerminal:
 
 @pytest.mark.parametrize("tty, quiet, shown", [(True, False, True), (True, True, False), (False, False, False)])
 def test_progress_bar_only_on_a_terminal_and_never_when_quiet(monkeypatch, tty, quiet, shown):
-    import durer.render as render_module
+    import importlib
 
+    render_module = importlib.import_module("durer.render")  # `durer.render` is the function
     fake = _FakeTerminal(tty)
     monkeypatch.setattr(render_module.sys, "stderr", fake)
     bar = render_module._progress(100, quiet)
