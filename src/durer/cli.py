@@ -92,7 +92,8 @@ def course_parser() -> argparse.ArgumentParser:
     p.add_argument("-weight", type=_number, default=0.01, metavar="W", help="cut off rays weaker than W")
     p.add_argument("-grid", nargs=3, type=_positive_int, metavar=("NX", "NY", "NZ"), help="use a uniform grid")
     p.add_argument("-visualize_grid", action="store_true", help="draw the grid's occupied cells")
-    p.add_argument("-stats", action="store_true", help="print ray-tracing statistics")
+    p.add_argument("-stats", action="store_true",
+                   help="print ray-tracing statistics (without -grid: of the every-object loop, as the course counted)")
     for kind in SAMPLERS:
         p.add_argument(f"-{kind}_samples", type=_positive_int, metavar="N", help=f"{kind} samples per pixel")
     p.add_argument("-box_filter", type=_positive_number, metavar="R", help="box filter of radius R pixels")
