@@ -14,7 +14,15 @@ import numpy as np
 
 from .compile import CompiledScene, sphere_bounds
 from .hits import Hits, _per_ray
-from .kernels.bvh import MAX_LEAF, any_hit_bvh, build_wide_bvh, closest_hit_bvh, stack_size_for
+from .kernels.bvh import (
+    MAX_LEAF,
+    any_hit_bvh,
+    build_wide_bvh,
+    closest_hit_bvh,
+    item_boxes,
+    leaf_items,
+    stack_size_for,
+)
 
 
 @dataclass
@@ -41,14 +49,10 @@ def build_tree(triangles: np.ndarray, sphere_lo: np.ndarray, sphere_hi: np.ndarr
     """Build the tree over triangles (F, 3, 3) and sphere boxes (S, 3); item ids: triangles 0..F-1, then spheres."""
     f = len(triangles)
     tris = np.ascontiguousarray(triangles, dtype=np.float64).reshape(f, 9)
-    lo = np.concatenate([triangles.min(axis=1), sphere_lo]) if f else np.asarray(sphere_lo, np.float64)
-    hi = np.concatenate([triangles.max(axis=1), sphere_hi]) if f else np.asarray(sphere_hi, np.float64)
-    bounds, child, order, depth = build_wide_bvh(lo.reshape(-1, 3), hi.reshape(-1, 3), max_leaf)
-    is_tri = order < f
-    leaf_prim = np.where(is_tri, order, -(order - f) - 1).astype(np.int32)
-    leaf_tri = np.zeros((len(order), 9))
-    if f:
-        leaf_tri[is_tri] = tris[order[is_tri]]
+    lo, hi = item_boxes(tris, np.ascontiguousarray(sphere_lo, dtype=np.float64).reshape(-1, 3),
+                        np.ascontiguousarray(sphere_hi, dtype=np.float64).reshape(-1, 3))
+    bounds, child, order, depth = build_wide_bvh(lo, hi, max_leaf)
+    leaf_prim, leaf_tri = leaf_items(tris, order)
     return WideBVH(bounds, child, leaf_prim, leaf_tri, depth)
 
 

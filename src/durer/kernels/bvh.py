@@ -32,6 +32,7 @@ N_BINS = 16           # SAH bins per axis
 TRAVERSAL_COST = 1.0  # SAH: cost of one node visit relative to one primitive test
 FAR_WIDEN = 1e-15     # relative widening of the slab test's far distance: covers float64 rounding
 RAY_CHUNK = 64        # rays per parallel work item: neighbouring (coherent) rays share a thread's cache
+BLOCK = 8             # packets per parallel work item of the one-level kernels (amortises the scratch)
 
 JIT = dict(cache=True, error_model="numpy", nogil=True)
 
@@ -47,12 +48,53 @@ def _area(lx, ly, lz, hx, hy, hz):
 
 
 @nb.njit(**JIT)
+def item_boxes(tris, sphere_lo, sphere_hi):
+    """Boxes (n, 3) lo and hi of the triangles (F, 9) followed by the spheres' boxes (S, 3)."""
+    f = tris.shape[0]
+    n = f + sphere_lo.shape[0]
+    lo = np.empty((n, 3))
+    hi = np.empty((n, 3))
+    for i in range(f):
+        for a in range(3):
+            x, y, z = tris[i, a], tris[i, 3 + a], tris[i, 6 + a]
+            lo[i, a] = min(x, y, z)
+            hi[i, a] = max(x, y, z)
+    for i in range(f, n):
+        for a in range(3):
+            lo[i, a] = sphere_lo[i - f, a]
+            hi[i, a] = sphere_hi[i - f, a]
+    return lo, hi
+
+
+@nb.njit(**JIT)
+def leaf_items(tris, order):
+    """leaf_prim (triangle id, or -(sphere + 1)) and leaf_tri (the triangle's 9 coordinates, zeros for a
+    sphere) in leaf order."""
+    f = tris.shape[0]
+    n = order.shape[0]
+    leaf_prim = np.empty(n, np.int32)
+    leaf_tri = np.zeros((n, 9))
+    for j in range(n):
+        p = order[j]
+        if p < f:
+            leaf_prim[j] = p
+            for q in range(9):
+                leaf_tri[j, q] = tris[p, q]
+        else:
+            leaf_prim[j] = -(p - f) - 1
+    return leaf_prim, leaf_tri
+
+
+@nb.njit(**JIT)
 def build_bvh2(lo, hi, max_leaf):
     """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays and the item order.
 
     Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
     Each node bins its items' centroids into N_BINS per axis, sweeps the bins for the cheapest SAH split, and
     becomes a leaf when that is cheaper (and it holds at most max_leaf items) or no split separates centroids.
+    The items' boxes and centroids are kept in node order (moved with the partition), so every pass reads
+    memory contiguously, and each node makes two passes over its items: binning, and the partition, which also
+    gives the children their centroid bounds (their boxes come from the bins).
     """
     n = lo.shape[0]
     cap = max(2 * n, 1)
@@ -62,17 +104,28 @@ def build_bvh2(lo, hi, max_leaf):
     start = np.zeros(cap, np.int32)
     count = np.zeros(cap, np.int32)
     order = np.arange(n).astype(np.int32)
-    cen = np.empty((n, 3))
+    ib = np.empty((n, 9))       # per item, in node order: lo xyz, hi xyz, centroid xyz
+    cb = np.empty((cap, 6))     # per node: centroid bounds
+    for a in range(6):
+        cb[0, a] = np.inf if a < 3 else -np.inf
+        box[0, a] = np.inf if a < 3 else -np.inf
     for i in range(n):
         for a in range(3):
-            cen[i, a] = 0.5 * (lo[i, a] + hi[i, a])
+            lo_, hi_ = lo[i, a], hi[i, a]
+            c = 0.5 * (lo_ + hi_)
+            ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = lo_, hi_, c
+            box[0, a] = min(box[0, a], lo_)
+            box[0, 3 + a] = max(box[0, 3 + a], hi_)
+            cb[0, a] = min(cb[0, a], c)
+            cb[0, 3 + a] = max(cb[0, 3 + a], c)
 
     bin_box = np.empty((3, N_BINS, 6))
     bin_cnt = np.zeros((3, N_BINS), np.int64)
     right_area = np.empty(N_BINS)
     right_cnt = np.empty(N_BINS, np.int64)
+    scale = np.zeros(3)
+    tmp = np.empty(9)
     stack = np.empty((128, 3), np.int64)   # node, first, end; depth-first keeps the stack at the tree depth
-    sp = 0
     m = 1
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
     sp = 1
@@ -80,26 +133,6 @@ def build_bvh2(lo, hi, max_leaf):
         sp -= 1
         node, first, end = stack[sp, 0], stack[sp, 1], stack[sp, 2]
         cnt = end - first
-        # bounds of the items and of their centroids
-        bl = np.full(3, np.inf)
-        bh = np.full(3, -np.inf)
-        cl = np.full(3, np.inf)
-        ch = np.full(3, -np.inf)
-        for j in range(first, end):
-            p = order[j]
-            for a in range(3):
-                if lo[p, a] < bl[a]:
-                    bl[a] = lo[p, a]
-                if hi[p, a] > bh[a]:
-                    bh[a] = hi[p, a]
-                c = cen[p, a]
-                if c < cl[a]:
-                    cl[a] = c
-                if c > ch[a]:
-                    ch[a] = c
-        for a in range(3):
-            box[node, a] = bl[a]
-            box[node, 3 + a] = bh[a]
         start[node] = first
         count[node] = cnt
         if cnt <= 1:
@@ -108,28 +141,30 @@ def build_bvh2(lo, hi, max_leaf):
         bin_cnt[:, :] = 0
         for a in range(3):
             for b in range(N_BINS):
-                bin_box[a, b, 0:3] = np.inf
-                bin_box[a, b, 3:6] = -np.inf
-        scale = np.zeros(3)
-        for a in range(3):
-            ext = ch[a] - cl[a]
-            if ext > 0.0:
-                scale[a] = N_BINS * (1.0 - 1e-9) / ext
-        for j in range(first, end):
-            p = order[j]
-            for a in range(3):
-                if scale[a] == 0.0:
-                    continue
-                b = int((cen[p, a] - cl[a]) * scale[a])
-                if b >= N_BINS:
-                    b = N_BINS - 1
-                bin_cnt[a, b] += 1
-                bb = bin_box[a, b]
                 for k in range(3):
-                    if lo[p, k] < bb[k]:
-                        bb[k] = lo[p, k]
-                    if hi[p, k] > bb[3 + k]:
-                        bb[3 + k] = hi[p, k]
+                    bin_box[a, b, k] = np.inf
+                    bin_box[a, b, 3 + k] = -np.inf
+        n_axes = 0
+        for a in range(3):
+            ext = cb[node, 3 + a] - cb[node, a]
+            scale[a] = N_BINS * (1.0 - 1e-9) / ext if ext > 0.0 else 0.0
+            if ext > 0.0:
+                n_axes += 1
+        if n_axes == 0:
+            if cnt <= 7:
+                continue  # coincident centroids: no plane separates them
+        else:
+            for j in range(first, end):
+                for a in range(3):
+                    if scale[a] == 0.0:
+                        continue
+                    b = int((ib[j, 6 + a] - cb[node, a]) * scale[a])
+                    if b >= N_BINS:
+                        b = N_BINS - 1
+                    bin_cnt[a, b] += 1
+                    for k in range(3):
+                        bin_box[a, b, k] = min(bin_box[a, b, k], ib[j, k])
+                        bin_box[a, b, 3 + k] = max(bin_box[a, b, 3 + k], ib[j, 3 + k])
         # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the N_BINS-1 planes
         best_cost = np.inf
         best_axis = -1
@@ -160,33 +195,56 @@ def build_bvh2(lo, hi, max_leaf):
                 cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[b + 1] * right_cnt[b + 1]
                 if cost < best_cost:
                     best_cost, best_axis, best_bin = cost, a, b
-        parent_area = _area(bl[0], bl[1], bl[2], bh[0], bh[1], bh[2])
+        parent_area = _area(box[node, 0], box[node, 1], box[node, 2], box[node, 3], box[node, 4], box[node, 5])
         leaf_cost = parent_area * cnt
         split_cost = parent_area * TRAVERSAL_COST + best_cost
-        if best_axis < 0:
-            if cnt <= 7:
-                continue  # coincident centroids: no plane separates them
-            mid = first + cnt // 2  # too many to keep together: split the list in half
-        else:
-            if cnt <= max_leaf and leaf_cost <= split_cost:
-                continue
-            # partition order[first:end] by bin
-            a = best_axis
-            i = first
-            k = end - 1
-            while i <= k:
-                b = int((cen[order[i], a] - cl[a]) * scale[a])
-                if b >= N_BINS:
-                    b = N_BINS - 1
-                if b <= best_bin:
-                    i += 1
-                else:
-                    order[i], order[k] = order[k], order[i]
-                    k -= 1
-            mid = i
+        if best_axis >= 0 and cnt <= max_leaf and leaf_cost <= split_cost:
+            continue
         l, r = m, m + 1
         m += 2
         left[node], right[node] = l, r
+        for a in range(3):
+            box[l, a] = box[r, a] = cb[l, a] = cb[r, a] = np.inf
+            box[l, 3 + a] = box[r, 3 + a] = cb[l, 3 + a] = cb[r, 3 + a] = -np.inf
+        if best_axis < 0:
+            mid = first + cnt // 2  # too many coincident centroids to keep together: split the list in half
+        else:
+            # partition the items by bin; the children's boxes are the unions of their bins
+            a = best_axis
+            i = first
+            k = end - 1
+            lo_a = cb[node, a]
+            sc = scale[a]
+            while i <= k:
+                b = int((ib[i, 6 + a] - lo_a) * sc)
+                if b >= N_BINS:
+                    b = N_BINS - 1
+                c = l if b <= best_bin else r
+                for q in range(3):
+                    box[c, q] = min(box[c, q], ib[i, q])
+                    box[c, 3 + q] = max(box[c, 3 + q], ib[i, 3 + q])
+                    cb[c, q] = min(cb[c, q], ib[i, 6 + q])
+                    cb[c, 3 + q] = max(cb[c, 3 + q], ib[i, 6 + q])
+                if b <= best_bin:
+                    i += 1
+                else:
+                    for q in range(9):
+                        tmp[q] = ib[i, q]
+                    for q in range(9):
+                        ib[i, q] = ib[k, q]
+                    for q in range(9):
+                        ib[k, q] = tmp[q]
+                    order[i], order[k] = order[k], order[i]
+                    k -= 1
+            mid = i
+        if best_axis < 0:
+            for j in range(first, end):
+                c = l if j < mid else r
+                for a in range(3):
+                    box[c, a] = min(box[c, a], ib[j, a])
+                    box[c, 3 + a] = max(box[c, 3 + a], ib[j, 3 + a])
+                    cb[c, a] = min(cb[c, a], ib[j, 6 + a])
+                    cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
         if sp + 2 > stack.shape[0]:
             grown = np.empty((2 * stack.shape[0], 3), np.int64)
             grown[:sp] = stack[:sp]
@@ -502,53 +560,302 @@ def _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min, best):
     return best, prim
 
 
+# ------------------------------------------------------------------------------------------------- ray packets
+#
+# Coherent rays (a chunk of PACKET consecutive rays whose directions share their signs and the watertight test's
+# axis permutation, as camera and shadow rays do) are traversed together: each node visit tests one child box
+# against all the packet's rays in a loop over rays that LLVM vectorises (AVX2: 4 float64 rays an instruction),
+# and a leaf's triangles are tested against all its rays the same way. Every ray does exactly the arithmetic of
+# the one-ray path (the same slab test, the same watertight test with the same constants), so t, u, v agree to
+# the bit; only the visit order differs, which can change the primitive named on an exact tie in t.
+# Scratch rows of `rr` (float64, (_NROW, PACKET)):
+_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ = range(20)
+_NROW = 20
+PACKET = 16
+
+
+@nb.njit(**JIT)
+def packet_setup(origins, directions, t_min, t_max, i0, n, rr, kinds, prims):
+    """Load rays i0..i0+n into the scratch rows (padding rays never hit) and return (coherent, nrx, nry, nrz,
+    kx, ky, kz): coherent when all n rays share direction signs and axis permutation."""
+    kx0, ky0, kz0, _, _, _ = ray_shear(directions[i0, 0], directions[i0, 1], directions[i0, 2])
+    coherent = True
+    sgn0 = -1
+    for k in range(PACKET):
+        i = i0 + k if k < n else i0
+        ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+        dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+        idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+        sgn = nrx + 2 * nry + 4 * nrz
+        if k == 0:
+            sgn0 = sgn
+        elif sgn != sgn0 or kx != kx0 or ky != ky0 or kz != kz0:
+            coherent = False
+        rr[_OX, k], rr[_OY, k], rr[_OZ, k] = ox, oy, oz
+        rr[_DX, k], rr[_DY, k], rr[_DZ, k] = dx, dy, dz
+        rr[_IX, k], rr[_IY, k], rr[_IZ, k] = idx, idy, idz
+        rr[_OKX, k], rr[_OKY, k], rr[_OKZ, k] = okx, oky, okz
+        rr[_SX, k], rr[_SY, k], rr[_SZ, k] = sx, sy, sz
+        rr[_E1, k], rr[_E2, k], rr[_DET, k] = 0.0, 0.0, 1.0
+        if k < n:
+            rr[_TMIN, k], rr[_BEST, k] = t_min[i], t_max[i]
+        else:
+            rr[_TMIN, k], rr[_BEST, k] = np.inf, -np.inf
+        kinds[k] = 0
+        prims[k] = -1
+    idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(
+        origins[i0, 0], origins[i0, 1], origins[i0, 2], directions[i0, 0], directions[i0, 1], directions[i0, 2])
+    return coherent, nrx, nry, nrz, kx0, ky0, kz0
+
+
+@nb.njit(**JIT, inline="always")
+def _packet_box(bounds, base, nrx, nry, nrz, rr, hit):
+    """hit[k] = whether packet ray k meets the box at flat offset `base` within [t_min, best]; returns the count."""
+    bnx = np.float64(bounds[base + nrx])
+    bfx = np.float64(bounds[base + 12 - nrx])
+    bny = np.float64(bounds[base + nry])
+    bfy = np.float64(bounds[base + 20 - nry])
+    bnz = np.float64(bounds[base + nrz])
+    bfz = np.float64(bounds[base + 28 - nrz])
+    cnt = 0
+    for k in range(PACKET):
+        ox, oy, oz = rr[_OX, k], rr[_OY, k], rr[_OZ, k]
+        ix, iy, iz = rr[_IX, k], rr[_IY, k], rr[_IZ, k]
+        tn = rr[_TMIN, k]
+        tf = rr[_BEST, k]
+        a = (bnx - ox) * ix
+        b = (bfx - ox) * ix
+        tn = a if a > tn else tn
+        tf = b if b < tf else tf
+        a = (bny - oy) * iy
+        b = (bfy - oy) * iy
+        tn = a if a > tn else tn
+        tf = b if b < tf else tf
+        a = (bnz - oz) * iz
+        b = (bfz - oz) * iz
+        tn = a if a > tn else tn
+        tf = b if b < tf else tf
+        h = tn <= tf + abs(tf) * FAR_WIDEN
+        hit[k] = h
+        cnt += np.int32(h)
+    return cnt
+
+
+@nb.njit(**JIT, inline="always")
+def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, hit, kinds, prims,
+                 any_mode):
+    """Test a leaf's items against the packet rays flagged in hit; records closer hits (any_mode: a hit sets
+    the ray's best to -inf, which retires it)."""
+    v = -code - 1
+    first = v >> 3
+    for j in range(first, first + (v & 7)):
+        p = leaf_prim[j]
+        if p >= 0:
+            base = j * 9
+            ax0, ay0, az0 = leaf_tri[base + kx], leaf_tri[base + ky], leaf_tri[base + kz]
+            bx0, by0, bz0 = leaf_tri[base + 3 + kx], leaf_tri[base + 3 + ky], leaf_tri[base + 3 + kz]
+            cx0, cy0, cz0 = leaf_tri[base + 6 + kx], leaf_tri[base + 6 + ky], leaf_tri[base + 6 + kz]
+            for k in range(PACKET):
+                okx, oky, okz = rr[_OKX, k], rr[_OKY, k], rr[_OKZ, k]
+                sx, sy, sz = rr[_SX, k], rr[_SY, k], rr[_SZ, k]
+                az = az0 - okz
+                bz = bz0 - okz
+                cz = cz0 - okz
+                ax = (ax0 - okx) - sx * az
+                ay = (ay0 - oky) - sy * az
+                bx = (bx0 - okx) - sx * bz
+                by = (by0 - oky) - sy * bz
+                cx = (cx0 - okx) - sx * cz
+                cy = (cy0 - oky) - sy * cz
+                e0 = cx * by - cy * bx
+                e1 = ax * cy - ay * cx
+                e2 = bx * ay - by * ax
+                det = e0 + e1 + e2
+                t = sz * (e0 * az + e1 * bz + e2 * cz) / det
+                best = rr[_BEST, k]
+                ok = (hit[k] & (det != 0.0) & (rr[_TMIN, k] < t) & (t < best)
+                      & ~(((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0))))
+                if any_mode:
+                    rr[_BEST, k] = -np.inf if ok else best
+                else:
+                    rr[_BEST, k] = t if ok else best
+                    rr[_E1, k] = e1 if ok else rr[_E1, k]
+                    rr[_E2, k] = e2 if ok else rr[_E2, k]
+                    rr[_DET, k] = det if ok else rr[_DET, k]
+                    prims[k] = p if ok else prims[k]
+                    kinds[k] = TRIANGLE if ok else kinds[k]
+        else:
+            s = -p - 1
+            for k in range(PACKET):
+                if hit[k]:
+                    best = rr[_BEST, k]
+                    t = sphere_hit_in_object_space((rr[_OX, k], rr[_OY, k], rr[_OZ, k]),
+                                                   (rr[_DX, k], rr[_DY, k], rr[_DZ, k]), sph_center[s],
+                                                   sph_radius[s], sph_w2o[s], rr[_TMIN, k], best)
+                    if t < best:
+                        if any_mode:
+                            rr[_BEST, k] = -np.inf
+                        else:
+                            rr[_BEST, k] = t
+                            rr[_E1, k], rr[_E2, k], rr[_DET, k] = 0.0, 0.0, 1.0
+                            prims[k] = s
+                            kinds[k] = SPHERE
+
+
+@nb.njit(**JIT)
+def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                    nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, any_mode):
+    """Traverse one tree with a coherent packet (see above). hits is (4, PACKET) bool scratch. Children are
+    ordered by the entry distance of the packet's middle ray; leaves met in a node are tested at once."""
+    mid = PACKET // 2
+    ox, oy, oz = rr[_OX, mid], rr[_OY, mid], rr[_OZ, mid]
+    ix, iy, iz = rr[_IX, mid], rr[_IY, mid], rr[_IZ, mid]
+    key = np.empty(4)
+    order = np.empty(4, np.int64)
+    stack_node[0] = root
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        node = stack_node[sp]
+        base = node * 24
+        n_in = 0
+        for lane in range(4):
+            c = child[node, lane]
+            if c == 0:
+                continue
+            if _packet_box(bounds, base + lane, nrx, nry, nrz, rr, hits[lane]) == 0:
+                continue
+            # sort key: the middle ray's entry distance (slab near planes only)
+            a = (np.float64(bounds[base + lane + nrx]) - ox) * ix
+            b = (np.float64(bounds[base + lane + nry]) - oy) * iy
+            e = (np.float64(bounds[base + lane + nrz]) - oz) * iz
+            kk = max(a, b, e)
+            j = n_in
+            while j > 0 and key[j - 1] > kk:   # insertion sort, nearest first
+                key[j] = key[j - 1]
+                order[j] = order[j - 1]
+                j -= 1
+            key[j] = kk
+            order[j] = lane
+            n_in += 1
+        # leaves now (nearest first), inner children onto the stack farthest first
+        for q in range(n_in):
+            lane = order[q]
+            c = child[node, lane]
+            if c < 0:
+                _packet_leaf(c, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, hits[lane],
+                             kinds, prims, any_mode)
+        for q in range(n_in - 1, -1, -1):
+            c = child[node, order[q]]
+            if c > 0:
+                stack_node[sp] = c
+                sp += 1
+
+
 # ----------------------------------------------------------------------------------------------- one-level kernels
 
 @nb.njit(**JIT, parallel=True)
 def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
                     sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size,
                     t_out, kind_out, prim_out, u_out, v_out):
-    """Closest hit of every ray against one tree (root 0) and the planes beside it; fills the Hits arrays."""
+    """Closest hit of every ray against one tree (root 0) and the planes beside it; fills the Hits arrays.
+    Chunks of PACKET rays that are coherent go through packet_traverse, the others one ray at a time."""
     n = origins.shape[0]
-    n_chunks = (n + RAY_CHUNK - 1) // RAY_CHUNK
-    for c in nb.prange(n_chunks):
+    n_chunks = (n + PACKET - 1) // PACKET
+    n_blocks = (n_chunks + BLOCK - 1) // BLOCK
+    for blk in nb.prange(n_blocks):
         stack_node = np.empty(stack_size, np.int32)
         stack_t = np.empty(stack_size)
         dist = np.empty(4)
-        for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
-            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
-            lo = t_min[i]
-            best, pprim = _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo, t_max[i])
-            t, kind, prim, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius,
-                                               sph_w2o, ox, oy, oz, dx, dy, dz, lo, best, stack_node, stack_t, dist)
-            if kind == 0 and pprim >= 0:
-                t, kind, prim = best, 3, pprim
-            t_out[i] = t
-            kind_out[i] = kind
-            prim_out[i] = prim
-            u_out[i] = u
-            v_out[i] = v
+        rr = np.empty((_NROW, PACKET))
+        hits = np.empty((4, PACKET), np.bool_)
+        kinds = np.empty(PACKET, np.int32)
+        prims = np.empty(PACKET, np.int32)
+        for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
+            i0 = c * PACKET
+            m = min(n, i0 + PACKET) - i0
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, i0, m, rr,
+                                                               kinds, prims)
+            if coherent and m == PACKET:
+                pprims = np.empty(PACKET, np.int32)
+                for k in range(PACKET):
+                    best, pprims[k] = _planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
+                                                      rr[_DX, k], rr[_DY, k], rr[_DZ, k], rr[_TMIN, k],
+                                                      rr[_BEST, k])
+                    rr[_BEST, k] = best
+                packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, False)
+                for k in range(PACKET):
+                    i = i0 + k
+                    kind = kinds[k]
+                    if kind != 0:
+                        t_out[i] = rr[_BEST, k]
+                        kind_out[i] = kind
+                        prim_out[i] = prims[k]
+                        u_out[i] = rr[_E1, k] / rr[_DET, k]
+                        v_out[i] = rr[_E2, k] / rr[_DET, k]
+                    elif pprims[k] >= 0:
+                        t_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = rr[_BEST, k], 3, pprims[k], 0.0, 0.0
+                    else:
+                        t_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = np.inf, 0, -1, 0.0, 0.0
+                continue
+            for i in range(i0, i0 + m):
+                ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+                dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+                lo = t_min[i]
+                best, pprim = _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo, t_max[i])
+                t, kind, prim, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius,
+                                                   sph_w2o, ox, oy, oz, dx, dy, dz, lo, best, stack_node, stack_t,
+                                                   dist)
+                if kind == 0 and pprim >= 0:
+                    t, kind, prim = best, 3, pprim
+                t_out[i] = t
+                kind_out[i] = kind
+                prim_out[i] = prim
+                u_out[i] = u
+                v_out[i] = v
 
 
 @nb.njit(**JIT, parallel=True)
 def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
                 sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size, out):
-    """out[i] = whether ray i hits anything with t_min < t < t_max; planes first, then the tree."""
+    """out[i] = whether ray i hits anything with t_min < t < t_max; planes first, then the tree (in packets
+    when coherent, as in closest_hit_bvh)."""
     n = origins.shape[0]
-    n_chunks = (n + RAY_CHUNK - 1) // RAY_CHUNK
-    for c in nb.prange(n_chunks):
+    n_chunks = (n + PACKET - 1) // PACKET
+    n_blocks = (n_chunks + BLOCK - 1) // BLOCK
+    for blk in nb.prange(n_blocks):
         stack_node = np.empty(stack_size, np.int32)
         dist = np.empty(4)
-        for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
-            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
-            _, pprim = _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min[i], t_max[i])
-            if pprim >= 0:
-                out[i] = True
-            else:
-                out[i] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                  ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node, dist)
+        rr = np.empty((_NROW, PACKET))
+        hits = np.empty((4, PACKET), np.bool_)
+        kinds = np.empty(PACKET, np.int32)
+        prims = np.empty(PACKET, np.int32)
+        for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
+            i0 = c * PACKET
+            m = min(n, i0 + PACKET) - i0
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, i0, m, rr,
+                                                               kinds, prims)
+            if coherent and m == PACKET:
+                for k in range(PACKET):
+                    _, pprim = _planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
+                                               rr[_DX, k], rr[_DY, k], rr[_DZ, k], rr[_TMIN, k], rr[_BEST, k])
+                    if pprim >= 0:
+                        rr[_BEST, k] = -np.inf
+                packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, True)
+                for k in range(PACKET):
+                    out[i0 + k] = rr[_BEST, k] == -np.inf
+                continue
+            for i in range(i0, i0 + m):
+                ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+                dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+                _, pprim = _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min[i], t_max[i])
+                if pprim >= 0:
+                    out[i] = True
+                else:
+                    out[i] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                      ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node, dist)
 
 
 def stack_size_for(depth: int) -> int:
@@ -565,6 +872,7 @@ def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     return bounds, child, order, int(depth)
 
 
-__all__ = ["build_wide_bvh", "closest_hit_bvh", "any_hit_bvh", "blas_closest", "blas_any", "blas_all",
+__all__ = ["build_wide_bvh", "item_boxes", "leaf_items", "closest_hit_bvh", "any_hit_bvh", "blas_closest",
+           "blas_any", "blas_all",
            "push_nearest_first", "node_dists", "ray_setup",
            "stack_size_for"]
