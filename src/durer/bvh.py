@@ -21,6 +21,7 @@ from .kernels.bvh import (
     closest_hit_bvh,
     item_boxes,
     leaf_items,
+    run_blocks,
     stack_size_for,
 )
 
@@ -85,15 +86,15 @@ class BVHAccelerator:
     def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> Hits:
         n = len(origins)
         h = Hits.empty(n)
-        closest_hit_bvh(np.ascontiguousarray(origins, dtype=np.float64),
-                        np.ascontiguousarray(directions, dtype=np.float64),
-                        _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), h.t, h.kind, h.prim, h.u, h.v)
+        run_blocks(closest_hit_bvh, n, np.ascontiguousarray(origins, dtype=np.float64),
+                   np.ascontiguousarray(directions, dtype=np.float64),
+                   _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), h.t, h.kind, h.prim, h.u, h.v)
         return h
 
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)
-        any_hit_bvh(np.ascontiguousarray(origins, dtype=np.float64),
-                    np.ascontiguousarray(directions, dtype=np.float64),
-                    _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), out)
+        run_blocks(any_hit_bvh, n, np.ascontiguousarray(origins, dtype=np.float64),
+                   np.ascontiguousarray(directions, dtype=np.float64),
+                   _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), out)
         return out

@@ -90,11 +90,12 @@ def build_bvh2(lo, hi, max_leaf):
     """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays and the item order.
 
     Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
-    Each node bins its items' centroids into N_BINS per axis, sweeps the bins for the cheapest SAH split, and
-    becomes a leaf when that is cheaper (and it holds at most max_leaf items) or no split separates centroids.
+    Each node bins its items' centroids into N_BINS per axis (fewer, 2 per item, for nodes of under 8 items),
+    sweeps the bins for the cheapest SAH split, and becomes a leaf when that is cheaper (and it holds at most
+    max_leaf items) or no split separates centroids.
     The items' boxes and centroids are kept in node order (moved with the partition), so every pass reads
     memory contiguously, and each node makes two passes over its items: binning, and the partition, which also
-    gives the children their centroid bounds (their boxes come from the bins).
+    gives the children their boxes and centroid bounds.
     """
     n = lo.shape[0]
     cap = max(2 * n, 1)
@@ -137,17 +138,18 @@ def build_bvh2(lo, hi, max_leaf):
         count[node] = cnt
         if cnt <= 1:
             continue
+        nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
         # bin centroids on all three axes in one pass
         bin_cnt[:, :] = 0
         for a in range(3):
-            for b in range(N_BINS):
+            for b in range(nbins):
                 for k in range(3):
                     bin_box[a, b, k] = np.inf
                     bin_box[a, b, 3 + k] = -np.inf
         n_axes = 0
         for a in range(3):
             ext = cb[node, 3 + a] - cb[node, a]
-            scale[a] = N_BINS * (1.0 - 1e-9) / ext if ext > 0.0 else 0.0
+            scale[a] = nbins * (1.0 - 1e-9) / ext if ext > 0.0 else 0.0
             if ext > 0.0:
                 n_axes += 1
         if n_axes == 0:
@@ -159,13 +161,13 @@ def build_bvh2(lo, hi, max_leaf):
                     if scale[a] == 0.0:
                         continue
                     b = int((ib[j, 6 + a] - cb[node, a]) * scale[a])
-                    if b >= N_BINS:
-                        b = N_BINS - 1
+                    if b >= nbins:
+                        b = nbins - 1
                     bin_cnt[a, b] += 1
                     for k in range(3):
                         bin_box[a, b, k] = min(bin_box[a, b, k], ib[j, k])
                         bin_box[a, b, 3 + k] = max(bin_box[a, b, 3 + k], ib[j, 3 + k])
-        # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the N_BINS-1 planes
+        # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the nbins-1 planes
         best_cost = np.inf
         best_axis = -1
         best_bin = 0
@@ -175,7 +177,7 @@ def build_bvh2(lo, hi, max_leaf):
             rl0 = rl1 = rl2 = np.inf
             rh0 = rh1 = rh2 = -np.inf
             rc = 0
-            for b in range(N_BINS - 1, 0, -1):
+            for b in range(nbins - 1, 0, -1):
                 bb = bin_box[a, b]
                 rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
                 rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
@@ -185,7 +187,7 @@ def build_bvh2(lo, hi, max_leaf):
             ll0 = ll1 = ll2 = np.inf
             lh0 = lh1 = lh2 = -np.inf
             lc = 0
-            for b in range(N_BINS - 1):
+            for b in range(nbins - 1):
                 bb = bin_box[a, b]
                 ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
                 lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
@@ -217,8 +219,8 @@ def build_bvh2(lo, hi, max_leaf):
             sc = scale[a]
             while i <= k:
                 b = int((ib[i, 6 + a] - lo_a) * sc)
-                if b >= N_BINS:
-                    b = N_BINS - 1
+                if b >= nbins:
+                    b = nbins - 1
                 c = l if b <= best_bin else r
                 for q in range(3):
                     box[c, q] = min(box[c, q], ib[i, q])
@@ -754,16 +756,17 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
 
 # ----------------------------------------------------------------------------------------------- one-level kernels
 
-@nb.njit(**JIT, parallel=True)
+@nb.njit(**JIT)
 def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
                     sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size,
-                    t_out, kind_out, prim_out, u_out, v_out):
-    """Closest hit of every ray against one tree (root 0) and the planes beside it; fills the Hits arrays.
-    Chunks of PACKET rays that are coherent go through packet_traverse, the others one ray at a time."""
+                    t_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
+    """Closest hit of rays in blocks blk0..blk1 (BLOCK * PACKET rays each) against one tree (root 0) and the
+    planes beside it; fills the Hits arrays. Chunks of PACKET rays that are coherent go through
+    packet_traverse, the others one ray at a time. Serial and nogil: run_blocks spreads the blocks over
+    threads (cheaper to compile and to load from the cache than a parallel=True kernel)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    n_blocks = (n_chunks + BLOCK - 1) // BLOCK
-    for blk in nb.prange(n_blocks):
+    for blk in range(blk0, blk1):
         stack_node = np.empty(stack_size, np.int32)
         stack_t = np.empty(stack_size)
         dist = np.empty(4)
@@ -816,15 +819,14 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                 v_out[i] = v
 
 
-@nb.njit(**JIT, parallel=True)
+@nb.njit(**JIT)
 def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
-                sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size, out):
-    """out[i] = whether ray i hits anything with t_min < t < t_max; planes first, then the tree (in packets
-    when coherent, as in closest_hit_bvh)."""
+                sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size, out, blk0, blk1):
+    """out[i] = whether ray i (in blocks blk0..blk1) hits anything with t_min < t < t_max; planes first, then
+    the tree (in packets when coherent, as in closest_hit_bvh)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    n_blocks = (n_chunks + BLOCK - 1) // BLOCK
-    for blk in nb.prange(n_blocks):
+    for blk in range(blk0, blk1):
         stack_node = np.empty(stack_size, np.int32)
         dist = np.empty(4)
         rr = np.empty((_NROW, PACKET))
@@ -858,6 +860,33 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                                       ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node, dist)
 
 
+def n_blocks(n_rays: int) -> int:
+    """Work items of closest_hit_bvh / any_hit_bvh for n_rays rays."""
+    return -(-int(n_rays) // (PACKET * BLOCK))
+
+
+_POOLS: dict = {}
+
+
+def run_blocks(kernel, n_rays: int, *args) -> None:
+    """kernel(*args, blk0, blk1) over all blocks, on numba.get_num_threads() threads (the kernels are nogil):
+    a few pieces per thread from a shared pool, so an unlucky slow piece does not idle the other thread."""
+    total = n_blocks(n_rays)
+    threads = min(nb.get_num_threads(), total)
+    if threads <= 1:
+        kernel(*args, 0, total)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = _POOLS.get(threads)
+    if pool is None:
+        pool = _POOLS[threads] = ThreadPoolExecutor(threads, thread_name_prefix="durer-bvh")
+    pieces = min(total, 8 * threads)
+    edges = [total * k // pieces for k in range(pieces + 1)]
+    for f in [pool.submit(kernel, *args, edges[k], edges[k + 1]) for k in range(pieces)]:
+        f.result()
+
+
 def stack_size_for(depth: int) -> int:
     """Traversal stack entries a tree of this depth can need: three deferred children per level, plus slack."""
     return 3 * int(depth) + 8
@@ -872,7 +901,8 @@ def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     return bounds, child, order, int(depth)
 
 
-__all__ = ["build_wide_bvh", "item_boxes", "leaf_items", "closest_hit_bvh", "any_hit_bvh", "blas_closest",
+__all__ = ["build_wide_bvh", "run_blocks", "n_blocks", "item_boxes", "leaf_items", "closest_hit_bvh", "any_hit_bvh",
+           "blas_closest",
            "blas_any", "blas_all",
            "push_nearest_first", "node_dists", "ray_setup",
            "stack_size_for"]
