@@ -86,8 +86,8 @@ def leaf_items(tris, order):
 
 
 @nb.njit(**JIT)
-def build_bvh2(lo, hi, max_leaf):
-    """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays and the item order.
+def build_bvh2(lo, hi, max_leaf, defer):
+    """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays, the item order and the deferred nodes.
 
     Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
     Each node bins its items' centroids into N_BINS per axis (fewer, 2 per item, for nodes of under 8 items),
@@ -96,6 +96,8 @@ def build_bvh2(lo, hi, max_leaf):
     The items' boxes and centroids are kept in node order (moved with the partition), so every pass reads
     memory contiguously, and each node makes two passes over its items: binning, and the partition, which also
     gives the children their boxes and centroid bounds.
+    With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in the
+    returned (k, 3) array as (node, first, end), so build_wide_bvh can build those subtrees on other threads.
     """
     n = lo.shape[0]
     cap = max(2 * n, 1)
@@ -130,6 +132,8 @@ def build_bvh2(lo, hi, max_leaf):
     m = 1
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
     sp = 1
+    deferred = np.empty((cap if defer > 0 else 0, 3), np.int64)
+    n_def = 0
     while sp > 0:
         sp -= 1
         node, first, end = stack[sp, 0], stack[sp, 1], stack[sp, 2]
@@ -137,6 +141,10 @@ def build_bvh2(lo, hi, max_leaf):
         start[node] = first
         count[node] = cnt
         if cnt <= 1:
+            continue
+        if node != 0 and cnt <= defer:
+            deferred[n_def, 0], deferred[n_def, 1], deferred[n_def, 2] = node, first, end
+            n_def += 1
             continue
         nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
         # bin centroids on all three axes in one pass
@@ -254,7 +262,7 @@ def build_bvh2(lo, hi, max_leaf):
         stack[sp, 0], stack[sp, 1], stack[sp, 2] = r, mid, end
         stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = l, first, mid
         sp += 2
-    return box[:m], left[:m], right[:m], start[:m], count[:m], order
+    return box[:m], left[:m], right[:m], start[:m], count[:m], order, deferred[:n_def]
 
 
 @nb.njit(**JIT)
@@ -892,11 +900,53 @@ def stack_size_for(depth: int) -> int:
     return 3 * int(depth) + 8
 
 
+PARALLEL_BUILD = 100_000  # items from which build_wide_bvh builds subtrees on several threads
+
+
+def _build_subtree(lo, hi, max_leaf, items):
+    return build_bvh2(lo[items], hi[items], max_leaf, 0)
+
+
 def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
-    """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring."""
+    """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring.
+
+    Large inputs on several threads: the top of the tree is built until its open nodes hold at most n / (4
+    threads) items each; those subtrees are then built concurrently (build_bvh2 is nogil) and stitched in. Each
+    subtree sees its items in the order the serial build would, so the tree is the same as the serial one's.
+    """
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
-    box, left, right, start, count, order = build_bvh2(lo, hi, max_leaf)
+    n = lo.shape[0]
+    threads = nb.get_num_threads()
+    if n < PARALLEL_BUILD or threads < 2:
+        box, left, right, start, count, order, _ = build_bvh2(lo, hi, max_leaf, 0)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        box, left, right, start, count, order, deferred = build_bvh2(lo, hi, max_leaf, n // (4 * threads))
+        pool = _POOLS.get(threads)
+        if pool is None:
+            pool = _POOLS[threads] = ThreadPoolExecutor(threads, thread_name_prefix="durer-bvh")
+        big_first = np.argsort(deferred[:, 1] - deferred[:, 2], kind="stable")
+        futures = {int(k): pool.submit(_build_subtree, lo, hi, max_leaf, order[deferred[k, 1]:deferred[k, 2]])
+                   for k in big_first}
+        parts = [box], [left], [right], [start], [count]
+        m = len(box)
+        for k in range(len(deferred)):
+            node, first, end = (int(x) for x in deferred[k])
+            sb, sl, sr, ss, sc, so, _ = futures[k].result()
+            # subtree node 0 takes the deferred node's place, the others are appended from m on
+            remap = lambda c, m=m: np.where(c > 0, c + (m - 1), c).astype(np.int32)  # noqa: E731
+            box[node], left[node], right[node] = sb[0], remap(sl[:1])[0], remap(sr[:1])[0]
+            start[node], count[node] = ss[0] + first, sc[0]
+            parts[0].append(sb[1:])
+            parts[1].append(remap(sl[1:]))
+            parts[2].append(remap(sr[1:]))
+            parts[3].append((ss[1:] + first).astype(np.int32))
+            parts[4].append(sc[1:])
+            order[first:end] = order[first:end][so]
+            m += len(sb) - 1
+        box, left, right, start, count = (np.concatenate(p) for p in parts)
     bounds, child, depth = collapse_bvh4(box, left, right, start, count)
     return bounds, child, order, int(depth)
 
