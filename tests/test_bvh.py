@@ -73,6 +73,41 @@ def test_bvh_equals_brute_force_on_random_scenes(seed, n_tri, n_sph, n_plane, or
     np.testing.assert_array_equal(bvh.any_hit(o, d, t_min, t_max), brute.any_hit(o, d, t_min, t_max))
 
 
+def _pinhole_rays(rng: np.random.Generator, res: int, ortho: bool):
+    """res x res camera rays in image order (so consecutive rays are coherent and take the packet path), from a
+    random eye towards the origin; orthographic: parallel rays from a grid of origins."""
+    eye = rng.normal(size=3)
+    eye *= 9.0 / np.linalg.norm(eye)
+    w = -eye / np.linalg.norm(eye)
+    u = np.cross(w, rng.normal(size=3))
+    u /= np.linalg.norm(u)
+    v = np.cross(w, u)
+    s = (np.arange(res) + 0.5) / res * 2 - 1
+    a, b = np.meshgrid(s, s)
+    if ortho:
+        o = eye + 4.0 * (a[..., None] * u + b[..., None] * v)
+        return o.reshape(-1, 3), np.broadcast_to(w, (res * res, 3)).copy()
+    d = w + 0.4 * (a[..., None] * u + b[..., None] * v)
+    return np.broadcast_to(eye, (res * res, 3)).copy(), d.reshape(-1, 3)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(1, 400), n_sph=st.integers(0, 6),
+       n_plane=st.integers(0, 1), ortho=st.booleans())
+def test_bvh_equals_brute_force_on_coherent_rays(seed, n_tri, n_sph, n_plane, ortho):
+    """Camera rays go through the packet traversal: same t (to the bit), kinds and hits as brute force."""
+    rng = np.random.default_rng(seed)
+    cs = compile_scene(_random_scene(rng, n_tri, n_sph, n_plane))
+    bvh, brute = BVHAccelerator(cs), BruteForce(cs)
+    o, d = _pinhole_rays(rng, 48, ortho)
+    t_min = -np.inf if ortho else 1e-4
+    h, ref = bvh.closest_hit(o, d, t_min=t_min), brute.closest_hit(o, d, t_min=t_min)
+    _assert_same(h, ref)
+    np.testing.assert_array_equal(h.t, ref.t)
+    t_max = rng.uniform(0.0, 12.0, len(o))
+    np.testing.assert_array_equal(bvh.any_hit(o, d, t_min, t_max), brute.any_hit(o, d, t_min, t_max))
+
+
 def test_empty_scene_and_single_primitive():
     o, d = np.zeros((3, 3)), np.array([[0, 0, 1.0], [0, 1.0, 0], [1.0, 0, 0]])
     h = BVHAccelerator(compile_scene(Scene(camera=None, group=Group([])))).closest_hit(o, d)

@@ -584,38 +584,70 @@ _NROW = 20
 PACKET = 16
 
 
+@nb.njit(**JIT, inline="always")
+def _shear_axes(dx, dy, dz):
+    """The axis permutation of intersect.ray_shear (same rules, without its divisions)."""
+    ax, ay, az = abs(dx), abs(dy), abs(dz)
+    if ax >= ay and ax >= az:
+        kz = 0
+    elif ay >= az:
+        kz = 1
+    else:
+        kz = 2
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    dkz = dx if kz == 0 else (dy if kz == 1 else dz)
+    if dkz < 0.0:
+        kx, ky = ky, kx
+    return kx, ky, kz
+
+
 @nb.njit(**JIT)
 def packet_setup(origins, directions, t_min, t_max, i0, n, rr, kinds, prims):
     """Load rays i0..i0+n into the scratch rows (padding rays never hit) and return (coherent, nrx, nry, nrz,
-    kx, ky, kz): coherent when all n rays share direction signs and axis permutation."""
-    kx0, ky0, kz0, _, _, _ = ray_shear(directions[i0, 0], directions[i0, 1], directions[i0, 2])
+    kx, ky, kz): coherent when all n rays share direction signs and axis permutation. Only then are the
+    per-ray constants computed (in a loop over rays that vectorises, with ray_setup's exact operations)."""
+    kx0, ky0, kz0 = _shear_axes(directions[i0, 0], directions[i0, 1], directions[i0, 2])
+    s0 = (directions[i0, 0] < 0.0) + 2 * (directions[i0, 1] < 0.0) + 4 * (directions[i0, 2] < 0.0)
     coherent = True
-    sgn0 = -1
     for k in range(PACKET):
         i = i0 + k if k < n else i0
-        ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
         dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
-        idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
-        sgn = nrx + 2 * nry + 4 * nrz
-        if k == 0:
-            sgn0 = sgn
-        elif sgn != sgn0 or kx != kx0 or ky != ky0 or kz != kz0:
+        kx, ky, kz = _shear_axes(dx, dy, dz)
+        sgn = (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0)
+        if sgn != s0 or kx != kx0 or ky != ky0 or kz != kz0:
             coherent = False
-        rr[_OX, k], rr[_OY, k], rr[_OZ, k] = ox, oy, oz
+            break
+        rr[_OX, k], rr[_OY, k], rr[_OZ, k] = origins[i, 0], origins[i, 1], origins[i, 2]
         rr[_DX, k], rr[_DY, k], rr[_DZ, k] = dx, dy, dz
-        rr[_IX, k], rr[_IY, k], rr[_IZ, k] = idx, idy, idz
-        rr[_OKX, k], rr[_OKY, k], rr[_OKZ, k] = okx, oky, okz
-        rr[_SX, k], rr[_SY, k], rr[_SZ, k] = sx, sy, sz
-        rr[_E1, k], rr[_E2, k], rr[_DET, k] = 0.0, 0.0, 1.0
         if k < n:
             rr[_TMIN, k], rr[_BEST, k] = t_min[i], t_max[i]
         else:
             rr[_TMIN, k], rr[_BEST, k] = np.inf, -np.inf
+    if not coherent:
+        return False, 0, 4, 8, kx0, ky0, kz0
+    for k in range(PACKET):
+        dx, dy, dz = rr[_DX, k], rr[_DY, k], rr[_DZ, k]
+        rr[_IX, k] = 1.0 / (dx if dx != 0.0 else 1e-300)
+        rr[_IY, k] = 1.0 / (dy if dy != 0.0 else 1e-300)
+        rr[_IZ, k] = 1.0 / (dz if dz != 0.0 else 1e-300)
+        dkz = rr[_DX + kz0, k]
+        rr[_SX, k] = rr[_DX + kx0, k] / dkz
+        rr[_SY, k] = rr[_DX + ky0, k] / dkz
+        rr[_SZ, k] = 1.0 / dkz
+        rr[_OKX, k] = rr[_OX + kx0, k]
+        rr[_OKY, k] = rr[_OX + ky0, k]
+        rr[_OKZ, k] = rr[_OX + kz0, k]
+        rr[_E1, k] = 0.0
+        rr[_E2, k] = 0.0
+        rr[_DET, k] = 1.0
         kinds[k] = 0
         prims[k] = -1
-    idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(
-        origins[i0, 0], origins[i0, 1], origins[i0, 2], directions[i0, 0], directions[i0, 1], directions[i0, 2])
-    return coherent, nrx, nry, nrz, kx0, ky0, kz0
+    # near-plane row offsets as in ray_setup (a zero component counts as positive there too)
+    nrx = 12 if rr[_IX, 0] < 0.0 else 0
+    nry = 16 if rr[_IY, 0] < 0.0 else 4
+    nrz = 20 if rr[_IZ, 0] < 0.0 else 8
+    return True, nrx, nry, nrz, kx0, ky0, kz0
 
 
 @nb.njit(**JIT, inline="always")
