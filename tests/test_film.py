@@ -1,10 +1,11 @@
 """Supersampling and filtering (assignment 7): sample patterns, filter weights, reconstruction, reproducibility,
 and the course's debug images and renders against their references.
 
-Known shortfall (not a film issue): in scene7_01 with 9 or 36 uniform samples some samples fall exactly on the
-triangle's long edge, and in scene7_02 the two big triangles' near edges and the horizon differ from the course
-by a pixel; with supersampling those pixels blend into their neighbours (output7_02a/d/g 98.2%, b/c/e/f/h/i
-~96%, output7_01d-f_low_res 94-99%). Those lines are left out of the goldens here (SKIP).
+Samples on or just outside the triangles' edges (scene7_01's uniform samples on its edges, scene7_02's near edges)
+count as hits thanks to the course command's edge tolerance (compile.widen_triangles). Known shortfall (not a film
+issue): scene7_02's horizon, where the floor is hit at grazing angles hundreds of units away and the course's
+single-precision hit points land in other checker cells for a few percent of the samples; with 16 samples per
+pixel most horizon pixels have one such sample (output7_02b/c/e/f/h 98.7-99.0%). Those lines need 98.5% (LOOSE).
 """
 
 from __future__ import annotations
@@ -182,9 +183,8 @@ def test_render_is_reproducible_across_thread_counts():
 
 
 # --- the course's images ------------------------------------------------------------------------------------------
-# left out: samples exactly on scene7_01's triangle edge, and scene7_02's triangle edges and horizon (module doc)
-SKIP = {"output7_01d_low_res", "output7_01e_low_res", "output7_01f_low_res", "output7_02a", "output7_02b",
-        "output7_02c", "output7_02d", "output7_02e", "output7_02f", "output7_02g", "output7_02h", "output7_02i"}
+# scene7_02's horizon (module doc): 98.5% of pixels instead of 99%
+LOOSE = {"output7_02b", "output7_02c", "output7_02e", "output7_02f", "output7_02h"}
 
 
 def course_a7_lines(skip: set[str]):
@@ -196,22 +196,22 @@ def course_a7_lines(skip: set[str]):
             and not any(o.rsplit(".", 1)[0] in skip for o in line.outputs)]
 
 
-LINES = course_a7_lines(SKIP)
+LINES = course_a7_lines(set())
 
 
 @needs_course
 @pytest.mark.parametrize("line", LINES, ids=lambda l: l.outputs[0].rsplit(".", 1)[0])
 def test_course_a7_image(line, tmp_path):
     """Debug images (-render_samples, -render_filter) and renders of scenes 7_01 and 7_02 match the references:
-    the filter images and the random/jittered sample images exactly, the rest on at least 99% of pixels."""
+    every scene7_01 image exactly, scene7_02's on at least 99% of pixels (98.5% for LOOSE, module doc)."""
     from course_report import compare, run_line
 
     code, err, written, _ = run_line(line, str(tmp_path))
     assert code == 0, err
     for name, path in written.items():
         fraction, _, largest = compare(path, line.reference(name))
-        exact = name.startswith("filter") or "-random_samples" in line.argv or "-jittered_samples" in line.argv
-        required = 1.0 if exact and name.startswith(("filter", "samples7_01")) else 0.99
+        stem = name.rsplit(".", 1)[0]
+        required = 1.0 if "scene7_01" in line.argv[1] else 0.985 if stem in LOOSE else 0.99
         assert fraction >= required, f"{name}: {fraction:.4%} of pixels within 2/255 (largest difference {largest})"
 
 
@@ -219,4 +219,5 @@ def test_course_a7_image(line, tmp_path):
 def test_course_a7_lines_found():
     every = course_a7_lines(set())
     assert len(every) == 35 + 16  # scene7_01: 1 + 9 + 9 + 16 lines; scene7_02: 16
-    assert len(LINES) == len(every) - len(SKIP)
+    assert len(LINES) == len(every)
+    assert LOOSE <= {line.outputs[0].rsplit(".", 1)[0] for line in every}

@@ -115,7 +115,8 @@ def _course_options(a: argparse.Namespace) -> RenderOptions:
         raise UsageError(f"choose one filter, not {' and '.join('-' + f + '_filter' for f in filters)}")
     opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
                          grid=tuple(a.grid) if a.grid else None, visualize_grid=a.visualize_grid, stats=a.stats,
-                         course_random=True)  # the course's own random samples (film.py), as its images show
+                         course_random=True,  # the course's own random samples (film.py), as its images show
+                         course_edges=True)   # and its triangles' edge tolerance (compile.widen_triangles)
     if samplers:
         opts.sampler = samplers[0]
         opts.samples = getattr(a, f"{samplers[0]}_samples")

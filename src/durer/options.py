@@ -22,6 +22,7 @@ class RenderOptions:
     filter_radius: float = 0.5    # box/tent radius, or gaussian sigma, in pixels
     seed: int = 0                 # seed of the random and jittered samplers: same seed, same image
     course_random: bool = False   # random/jittered offsets from the course's drand48 stream instead (film.py)
+    course_edges: bool = False    # triangles accept points just outside their edges, as the course's do (compile.py)
     grid: tuple[int, int, int] | None = None  # use the course's uniform grid instead of the BVH (-grid)
     visualize_grid: bool = False  # draw the grid's occupied cells instead of the objects (-visualize_grid)
     stats: bool = False           # count rays, intersections and grid cells (-stats)
