@@ -746,14 +746,13 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
 
 @nb.njit(**JIT)
 def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                    nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, any_mode):
-    """Traverse one tree with a coherent packet (see above). hits is (4, PACKET) bool scratch. Children are
+                    nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, key, order, any_mode):
+    """Traverse one tree with a coherent packet (see above). hits (4, PACKET) bool, key (4,) float64 and order
+    (4,) int64 are scratch. Children are
     ordered by the entry distance of the packet's middle ray; leaves met in a node are tested at once."""
     mid = PACKET // 2
     ox, oy, oz = rr[_OX, mid], rr[_OY, mid], rr[_OZ, mid]
     ix, iy, iz = rr[_IX, mid], rr[_IY, mid], rr[_IZ, mid]
-    key = np.empty(4)
-    order = np.empty(4, np.int64)
     stack_node[0] = root
     sp = 1
     while sp > 0:
@@ -806,28 +805,30 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
     threads (cheaper to compile and to load from the cache than a parallel=True kernel)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
+    stack_node = np.empty(stack_size, np.int32)
+    stack_t = np.empty(stack_size)
+    dist = np.empty(4)
+    rr = np.empty((_NROW, PACKET))
+    hits = np.empty((4, PACKET), np.bool_)
+    kinds = np.empty(PACKET, np.int32)
+    prims = np.empty(PACKET, np.int32)
+    pprims = np.empty(PACKET, np.int32)
+    key = np.empty(4)
+    order = np.empty(4, np.int64)
     for blk in range(blk0, blk1):
-        stack_node = np.empty(stack_size, np.int32)
-        stack_t = np.empty(stack_size)
-        dist = np.empty(4)
-        rr = np.empty((_NROW, PACKET))
-        hits = np.empty((4, PACKET), np.bool_)
-        kinds = np.empty(PACKET, np.int32)
-        prims = np.empty(PACKET, np.int32)
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
             i0 = c * PACKET
             m = min(n, i0 + PACKET) - i0
             coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, i0, m, rr,
                                                                kinds, prims)
             if coherent and m == PACKET:
-                pprims = np.empty(PACKET, np.int32)
                 for k in range(PACKET):
                     best, pprims[k] = _planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
                                                       rr[_DX, k], rr[_DY, k], rr[_DZ, k], rr[_TMIN, k],
                                                       rr[_BEST, k])
                     rr[_BEST, k] = best
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, False)
+                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, key, order, False)
                 for k in range(PACKET):
                     i = i0 + k
                     kind = kinds[k]
@@ -866,13 +867,15 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
     the tree (in packets when coherent, as in closest_hit_bvh)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
+    stack_node = np.empty(stack_size, np.int32)
+    dist = np.empty(4)
+    rr = np.empty((_NROW, PACKET))
+    hits = np.empty((4, PACKET), np.bool_)
+    kinds = np.empty(PACKET, np.int32)
+    prims = np.empty(PACKET, np.int32)
+    key = np.empty(4)
+    order = np.empty(4, np.int64)
     for blk in range(blk0, blk1):
-        stack_node = np.empty(stack_size, np.int32)
-        dist = np.empty(4)
-        rr = np.empty((_NROW, PACKET))
-        hits = np.empty((4, PACKET), np.bool_)
-        kinds = np.empty(PACKET, np.int32)
-        prims = np.empty(PACKET, np.int32)
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
             i0 = c * PACKET
             m = min(n, i0 + PACKET) - i0
@@ -885,7 +888,7 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                     if pprim >= 0:
                         rr[_BEST, k] = -np.inf
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, True)
+                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, key, order, True)
                 for k in range(PACKET):
                     out[i0 + k] = rr[_BEST, k] == -np.inf
                 continue
