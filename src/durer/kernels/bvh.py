@@ -29,7 +29,7 @@ from .intersect import ray_shear, sphere_hit_in_object_space, watertight_triangl
 TRIANGLE, SPHERE = 1, 2
 MAX_LEAF = 4          # items per leaf (the build may go up to 7 when all centroids coincide)
 N_BINS = 16           # SAH bins per axis
-TRAVERSAL_COST = 1.0  # SAH: cost of one node visit relative to one primitive test
+TRAVERSAL_COST = 2.0  # SAH: cost of a node visit (4 box tests) relative to one primitive test
 FAR_WIDEN = 1e-15     # relative widening of the slab test's far distance: covers float64 rounding
 RAY_CHUNK = 64        # rays per parallel work item: neighbouring (coherent) rays share a thread's cache
 BLOCK = 8             # packets per parallel work item of the one-level kernels (amortises the scratch)
