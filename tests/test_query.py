@@ -208,3 +208,23 @@ def test_value_errors(call, match):
     s.add_sphere([0, 0, 0], 1.0)
     with pytest.raises(ValueError, match=match):
         call(s)
+
+
+def test_create_rays_pinhole_depth_map_of_a_plane():
+    """A depth map the way a practitioner makes one: pinhole rays at a wall 5 units away."""
+    from durer import RaycastingScene
+
+    rays = RaycastingScene.create_rays_pinhole(fov_deg=90, center=(0, 0, 0), eye=(0, 0, 5), up=(0, 1, 0),
+                                               width_px=4, height_px=2)
+    assert rays.shape == (2, 4, 6)
+    np.testing.assert_allclose(rays[..., :3], np.broadcast_to([0, 0, 5], (2, 4, 3)))
+    np.testing.assert_allclose(np.linalg.norm(rays[..., 3:], axis=-1), 1.0)
+    # columns run left to right, row 0 is the top; 90 degrees across the 4-pixel width: centres at +-0.25, +-0.75
+    expected = np.array([-0.75, 0.25, -1.0])
+    np.testing.assert_allclose(rays[0, 0, 3:], expected / np.linalg.norm(expected))
+    scene = RaycastingScene()
+    scene.add_triangles(np.array([[-10, -10, 0], [10, -10, 0], [0, 10, 0]], float), np.array([[0, 1, 2]]))
+    t = scene.cast_rays(rays)["t_hit"]
+    np.testing.assert_allclose(t * -rays[..., 5], 5.0)  # the depth along the view axis is the distance to the wall
+    with pytest.raises(ValueError, match="parallel"):
+        RaycastingScene.create_rays_pinhole(60, (0, 0, 0), (0, 0, 5), (0, 0, 1), 4, 4)

@@ -72,6 +72,22 @@ class RaycastingScene:
     first query after a change (each mesh's own tree when it is added); `build_seconds` totals both.
     """
 
+    @staticmethod
+    def create_rays_pinhole(fov_deg: float, center, eye, up, width_px: int, height_px: int) -> np.ndarray:
+        """Rays (height_px, width_px, 6) of a pinhole camera at `eye` looking at `center`, one through each
+        pixel's centre: Open3D's call, with durer's conventions (row 0 at the top, columns left to right,
+        unit directions so t_hit is a distance; fov_deg spans the longer image side)."""
+        from .cameras import PerspectiveCamera, pixel_centers
+
+        eye = np.asarray(eye, dtype=np.float64)
+        camera = PerspectiveCamera(center=eye, direction=np.asarray(center, dtype=np.float64) - eye, up=up,
+                                   angle=fov_deg)
+        width_px, height_px = int(width_px), int(height_px)
+        if width_px < 1 or height_px < 1:
+            raise ValueError(f"image size must be positive, got {width_px} x {height_px}")
+        origins, directions, _ = camera.generate_rays(pixel_centers(width_px, height_px), width_px, height_px)
+        return np.concatenate([origins, directions], axis=-1)
+
     def __init__(self) -> None:
         self._shapes: list[_Shape] = []
         self._instances: list[tuple[int, np.ndarray]] = []  # (shape index, object-to-world 4x4)
