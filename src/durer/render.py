@@ -8,7 +8,6 @@ import time
 from dataclasses import dataclass, fields
 
 import numpy as np
-from tqdm import tqdm
 
 from . import film
 from .bvh import BVHAccelerator
@@ -100,10 +99,31 @@ def choose_integrator(options: RenderOptions):
     return raycast
 
 
+class _NoBar:
+    """The disabled progress bar: tqdm's interface without importing tqdm (27 ms of every CLI start-up)."""
+
+    disable = True
+
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> _NoBar:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass
+
+
 def _progress(total: int, quiet: bool):
     """A progress bar on stderr that appears only after a second, and never when quiet or not on a terminal."""
-    disable = quiet or not sys.stderr.isatty()
-    return tqdm(total=total, unit="ray", unit_scale=True, delay=1.0, disable=disable, leave=False,
+    if quiet or not sys.stderr.isatty():
+        return _NoBar()
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="ray", unit_scale=True, delay=1.0, disable=False, leave=False,
                 desc="rendering", file=sys.stderr)
 
 

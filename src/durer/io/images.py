@@ -11,10 +11,12 @@ import os
 import tempfile
 
 import numpy as np
-from PIL import Image
+from PIL import Image, TgaImagePlugin  # noqa: F401
 
 from ..errors import UsageError
 
+# TgaImagePlugin is imported to register TGA: Pillow would otherwise import every plugin (~45 ms) on the
+# first TGA save; PNG, PPM and BMP are registered by Image.preinit.
 EIGHT_BIT = {".png": "PNG", ".tga": "TGA", ".ppm": "PPM", ".bmp": "BMP"}
 RAW = (".npy", ".pfm")
 EXTENSIONS = tuple(EIGHT_BIT) + RAW
