@@ -184,3 +184,92 @@ def test_agrees_with_embree_on_a_million_rays(bunny):
     assert (e_hit == h.hit).mean() >= 0.9999
     both = e_hit & h.hit
     np.testing.assert_allclose(h.t[both], e["tfar"][both], rtol=1e-4)
+
+
+def _instanced_scene(mesh: TriangleMesh, copies: int, separate: bool = False) -> Scene:
+    """`mesh` placed `copies` times (the second mirrored in x, the others rotated, scaled and moved), with
+    materials 0/1 alternating, each a TriangleMesh of the same file, as the course parser makes them (stored once);
+    separate=True gives every placement its own arrays and no file (flattened, as before instancing)."""
+    rng = np.random.default_rng(7)
+    objs: list = [Sphere((0, 0, -4), 1.5, material=1), Triangle((-5, -5, -6), (5, -5, -6), (0, 5, -6), material=0)]
+    for i in range(copies):
+        m = np.eye(4)
+        if i == 1:
+            m[0, 0] = -1.0  # a mirror
+        elif i:
+            q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            m[:3, :3] = q * rng.uniform(0.5, 1.5)
+        m[:3, 3] = rng.uniform(-2, 2, 3)
+        obj = TriangleMesh(mesh.vertices.copy(), mesh.faces.copy(), material=i % 2) if separate else \
+            TriangleMesh(mesh.vertices, mesh.faces, material=i % 2, source="mesh.obj")
+        objs.append(Transform(m, obj))
+    return Scene(camera=None, group=Group(objs))
+
+
+def _small_mesh(rng) -> TriangleMesh:
+    v = rng.uniform(-1, 1, (60, 3))
+    f = rng.integers(0, 60, (80, 3))
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+    return TriangleMesh(v, f)
+
+
+def test_a_mesh_placed_twice_is_stored_once_and_hits_as_flattened():
+    """Issue 3, item 1: the renderer's BVH keeps a mesh used more than once as one stored mesh + instances
+    (one mirrored here) and answers with the same Hits (virtual triangle ids) as the flattened scene."""
+    from durer.hits import geometric_normals, hit_materials
+
+    rng = np.random.default_rng(3)
+    mesh = _small_mesh(rng)
+    inst = compile_scene(_instanced_scene(mesh, 3))
+    flat = compile_scene(_instanced_scene(mesh, 3, separate=True))
+    assert len(inst.mesh_triangles) == 1 and len(inst.instance_mesh) == 3 and len(flat.instance_mesh) == 0
+    assert inst.counts == flat.counts
+    np.testing.assert_array_equal(inst.flat.triangles, flat.triangles)  # same virtual numbering, same vertices
+    np.testing.assert_array_equal(inst.triangle(np.arange(inst.n_triangles)), flat.triangles)
+    np.testing.assert_array_equal(inst.triangle_materials(np.arange(inst.n_triangles)), flat.triangle_material)
+    o, d = _random_rays(rng, 4000)
+    for t_min in (1e-4, -np.inf):
+        h = BVHAccelerator(inst).closest_hit(o, d, t_min=t_min)
+        ref = BVHAccelerator(flat).closest_hit(o, d, t_min=t_min)
+        _assert_same(h, ref)
+        _assert_same(BruteForce(inst).closest_hit(o, d, t_min=t_min), ref)
+        assert (h.kind == 1).sum() > 500 and (h.prim >= inst.instance_offset[1]).sum() > 100  # the mirror is hit
+        p = o + h.t[:, None] * d
+        np.testing.assert_allclose(geometric_normals(inst, h, p), geometric_normals(flat, ref, p), atol=1e-9)
+        np.testing.assert_array_equal(hit_materials(inst, h), hit_materials(flat, ref))
+    t_max = rng.uniform(0.0, 2.0, len(o))
+    np.testing.assert_array_equal(BVHAccelerator(inst).any_hit(o, d, 1e-4, t_max),
+                                  BVHAccelerator(flat).any_hit(o, d, 1e-4, t_max))
+
+
+def test_a_mesh_placed_again_costs_little_memory():
+    rng = np.random.default_rng(5)
+    v = rng.uniform(-1, 1, (3000, 3))
+    mesh = TriangleMesh(v, np.arange(3000).reshape(-1, 3))
+    size = {}
+    for copies in (2, 10):
+        cs = compile_scene(_instanced_scene(mesh, copies))
+        size[copies] = cs.nbytes + BVHAccelerator(cs).nbytes
+    mesh_bytes = mesh.vertices.nbytes
+    assert size[10] - size[2] < 0.1 * mesh_bytes  # eight more placements: a few hundred bytes each
+
+
+def test_instanced_render_matches_flattened_render():
+    import durer
+    from durer import DirectionalLight, OrthographicCamera, PhongMaterial
+
+    rng = np.random.default_rng(11)
+    mesh = _small_mesh(rng)
+    results = []
+    for separate in (False, True):
+        s = _instanced_scene(mesh, 3, separate=separate)
+        scene = Scene(camera=OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=8),
+                      group=s.group, materials=[PhongMaterial(diffuse_color=(1, 0, 0)),
+                                                PhongMaterial(diffuse_color=(0, 1, 0))],
+                      lights=[DirectionalLight(direction=(0.3, -0.2, -1), color=(0.8, 0.8, 0.8))],
+                      background_color=(0, 0, 1))
+        results.append(durer.render(scene, 64, 64, shadows=True))
+    a, b = results
+    np.testing.assert_array_equal(a.color, b.color)
+    np.testing.assert_allclose(a.depth, b.depth, rtol=1e-6)
+    np.testing.assert_allclose(a.normals, b.normals, atol=1e-6)

@@ -24,6 +24,7 @@ from .kernels.bvh import (
     run_blocks,
     stack_size_for,
 )
+from .kernels.instances import any_hit_instances, closest_hit_instances
 
 
 @dataclass
@@ -71,12 +72,30 @@ class BVHAccelerator:
         start = time.perf_counter()
         slo, shi = sphere_bounds(cs)
         self.tree = build_tree(cs.triangles, slo, shi, max_leaf)
+        self.instances = None
+        if len(cs.instance_mesh):
+            # meshes placed more than once: one bottom-level tree per stored mesh, a top-level tree over the
+            # instances (query.py's two-level structure); the flat tree holds everything else
+            from .query import RaycastingScene
+
+            rs = RaycastingScene()
+            for mesh in cs.mesh_triangles:  # shape i of rs is stored mesh i
+                rs.add_triangles(mesh.reshape(-1, 3), np.arange(3 * len(mesh)).reshape(-1, 3))
+            # instance k of the scene is instance k of rs
+            rs._instances = [(int(m), np.asarray(matrix, dtype=np.float64))
+                             for m, matrix in zip(cs.instance_mesh, cs.instance_matrix, strict=True)]
+            rs._packed = None
+            self.instances = rs._args()  # keep only the packed arrays (the per-shape trees are copies)
+            self._inst_offset = cs.instance_offset[:-1]
+            self._inst_mirror = np.linalg.det(cs.instance_matrix[:, :3, :3]) < 0
         self.build_seconds = time.perf_counter() - start
 
     @property
     def nbytes(self) -> int:
-        """Bytes held by the acceleration structure (nodes and leaf-ordered triangles)."""
-        return self.tree.nbytes
+        """Bytes held by the acceleration structure (nodes and leaf-ordered triangles; with instances, the
+        two-level structure, whose meshes are stored once)."""
+        extra = sum(a.nbytes for a in self.instances if isinstance(a, np.ndarray)) if self.instances else 0
+        return self.tree.nbytes + extra
 
     def _args(self):
         cs, tr = self.cs, self.tree
@@ -89,7 +108,28 @@ class BVHAccelerator:
         run_blocks(closest_hit_bvh, n, np.ascontiguousarray(origins, dtype=np.float64),
                    np.ascontiguousarray(directions, dtype=np.float64),
                    _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), h.t, h.kind, h.prim, h.u, h.v)
+        if self.instances is not None and n:
+            self._closest_instances(origins, directions, t_min, t_max, h)
         return h
+
+    def _closest_instances(self, origins, directions, t_min, t_max, h: Hits) -> None:
+        """Merge the instances' closest hits into h (a tie keeps the flat hit); prim becomes the virtual id."""
+        n = len(h.t)
+        t, inst, kind = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int8)
+        prim, u, v = np.empty(n, np.int32), np.empty(n), np.empty(n)
+        closest_hit_instances(np.ascontiguousarray(origins, dtype=np.float64),
+                              np.ascontiguousarray(directions, dtype=np.float64), _per_ray(t_min, n),
+                              np.minimum(_per_ray(t_max, n), h.t), *self.instances, t, inst, kind, prim, u, v)
+        m = kind != 0
+        if m.any():
+            k = inst[m]
+            mirror = self._inst_mirror[k]
+            h.t[m] = t[m]
+            h.kind[m] = kind[m]
+            h.prim[m] = self._inst_offset[k] + prim[m]
+            # a mirrored instance's world triangle is (v0, v2, v1): its barycentrics swap
+            h.u[m] = np.where(mirror, v[m], u[m])
+            h.v[m] = np.where(mirror, u[m], v[m])
 
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> np.ndarray:
         n = len(origins)
@@ -97,4 +137,11 @@ class BVHAccelerator:
         run_blocks(any_hit_bvh, n, np.ascontiguousarray(origins, dtype=np.float64),
                    np.ascontiguousarray(directions, dtype=np.float64),
                    _per_ray(t_min, n), _per_ray(t_max, n), *self._args(), out)
+        if self.instances is not None and n and not out.all():
+            rest = np.flatnonzero(~out)
+            more = np.empty(len(rest), dtype=np.bool_)
+            any_hit_instances(np.ascontiguousarray(np.asarray(origins, dtype=np.float64)[rest]),
+                              np.ascontiguousarray(np.asarray(directions, dtype=np.float64)[rest]),
+                              _per_ray(t_min, n)[rest], _per_ray(t_max, n)[rest], *self.instances, more)
+            out[rest] = more
         return out

@@ -4,11 +4,17 @@ Transforms are applied here, once: triangles and planes are moved into world spa
 still a triangle, a transformed plane still a plane), so `t` is measured in world units for free. A sphere under
 a transform becomes an ellipsoid, so it keeps its world-to-object matrix and is intersected in object space with
 the direction left unnormalised, which keeps t in world units too (the course's scene2_16_t_scale checks this).
+
+A mesh placed more than once (the same TriangleMesh object, or the same file with identical arrays, as the
+course parser makes for each `TriangleMesh {}`) is stored once, in object space, with one (matrix, material)
+instance per placement (issue 3, item 1); bvh.BVHAccelerator traces it two-level (kernels/instances.py). Triangle
+ids stay one flat numbering (CompiledScene.triangle / triangle_materials); brute force and the grid use `flat`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -33,10 +39,80 @@ class CompiledScene:
     plane_normal: np.ndarray       # (P, 3) unit
     plane_offset: np.ndarray       # (P,)  dot(x, normal) = offset
     plane_material: np.ndarray     # (P,) int32
+    # Instanced meshes (a mesh placed more than once is stored once): object-space triangles of each stored mesh,
+    # and per instance its mesh, object-to-world matrix and material. Triangle ids are virtual: 0..F-1 name
+    # `triangles`, then instance k's local face i is instance_offset[k] + i (see triangle / triangle_materials).
+    mesh_triangles: tuple = ()     # of (Fi, 3, 3) object-space vertices
+    instance_mesh: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))      # (K,)
+    instance_matrix: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))      # (K, 4, 4)
+    instance_material: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))  # (K,)
+
+    @property
+    def instance_offset(self) -> np.ndarray:
+        """(K+1,) first virtual triangle id of each instance, then the total triangle count."""
+        sizes = [len(self.mesh_triangles[m]) for m in self.instance_mesh]
+        return len(self.triangles) + np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)]).astype(np.int64)
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self.instance_offset[-1])
 
     @property
     def counts(self) -> tuple[int, int, int]:
-        return len(self.triangles), len(self.sphere_radius), len(self.plane_offset)
+        return self.n_triangles, len(self.sphere_radius), len(self.plane_offset)
+
+    def instance_triangles(self, k: int, local=None) -> np.ndarray:
+        """World-space triangles of instance k (its local faces `local`, or all), exactly as flattening makes them."""
+        mesh = self.mesh_triangles[int(self.instance_mesh[k])]
+        v = mesh if local is None else mesh[local]
+        return _place(v, self.instance_matrix[k])
+
+    def triangle(self, ids) -> np.ndarray:
+        """World-space vertices (n, 3, 3) of virtual triangle ids, built on demand."""
+        ids = np.asarray(ids, dtype=np.int64)
+        f = len(self.triangles)
+        out = np.empty((len(ids), 3, 3))
+        flat = ids < f
+        out[flat] = self.triangles[ids[flat]]
+        if not flat.all():
+            off = self.instance_offset
+            k = np.searchsorted(off, ids, side="right") - 1
+            for inst in np.unique(k[~flat]):
+                sel = k == inst
+                out[sel] = self.instance_triangles(inst, ids[sel] - off[inst])
+        return out
+
+    def triangle_materials(self, ids) -> np.ndarray:
+        """Material index (n,) of virtual triangle ids."""
+        ids = np.asarray(ids, dtype=np.int64)
+        f = len(self.triangles)
+        out = np.empty(len(ids), np.int32)
+        flat = ids < f
+        out[flat] = self.triangle_material[ids[flat]]
+        if not flat.all():
+            k = np.searchsorted(self.instance_offset, ids[~flat], side="right") - 1
+            out[~flat] = self.instance_material[k]
+        return out
+
+    @cached_property
+    def flat(self) -> CompiledScene:
+        """This scene with every instance flattened into world-space triangles (same virtual ids), for the
+        brute-force and grid accelerators; the scene itself if it has no instances."""
+        if not len(self.instance_mesh):
+            return self
+        tris = [self.triangles] + [self.instance_triangles(k) for k in range(len(self.instance_mesh))]
+        mats = [self.triangle_material] + [np.full(len(self.mesh_triangles[m]), mat, np.int32)
+                                          for m, mat in zip(self.instance_mesh, self.instance_material, strict=True)]
+        return replace(self, triangles=np.ascontiguousarray(np.concatenate(tris)),
+                       triangle_material=np.concatenate(mats), mesh_triangles=(),
+                       instance_mesh=np.zeros(0, np.int32), instance_matrix=np.zeros((0, 4, 4)),
+                       instance_material=np.zeros(0, np.int32))
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of triangle storage (flat triangles, stored meshes, instance tables)."""
+        return (self.triangles.nbytes + self.triangle_material.nbytes + sum(m.nbytes for m in self.mesh_triangles)
+                + self.instance_mesh.nbytes + self.instance_matrix.nbytes + self.instance_material.nbytes)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """World bounding box of the bounded primitives (triangles and spheres); planes are unbounded."""
@@ -44,6 +120,11 @@ class CompiledScene:
         if len(self.triangles):
             lo.append(self.triangles.min(axis=(0, 1)))
             hi.append(self.triangles.max(axis=(0, 1)))
+        for k in range(len(self.instance_mesh)):
+            if len(self.mesh_triangles[int(self.instance_mesh[k])]):
+                t = self.instance_triangles(k)
+                lo.append(t.min(axis=(0, 1)))
+                hi.append(t.max(axis=(0, 1)))
         if len(self.sphere_radius):
             slo, shi = sphere_bounds(self)
             lo.append(slo.min(axis=0))
@@ -97,16 +178,53 @@ def widen_triangles(triangles: np.ndarray, tolerance=COURSE_EDGE_TOLERANCE) -> n
 
 
 def with_course_edges(cs: CompiledScene) -> CompiledScene:
-    """The same scene with every triangle widened by the course's edge tolerance (widen_triangles)."""
-    return replace(cs, triangles=widen_triangles(cs.triangles))
+    """The same scene with every triangle widened by the course's edge tolerance (widen_triangles). Widening is
+    affine-invariant, so a stored mesh is widened once, in object space (its tolerances for vertex1 and vertex2
+    are equal, so a mirror's v1/v2 swap commutes with it too)."""
+    return replace(cs, triangles=widen_triangles(cs.triangles),
+                   mesh_triangles=tuple(widen_triangles(m) for m in cs.mesh_triangles))
+
+
+def _place(v: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Object-space triangles (F,3,3) under the object-to-world matrix m; a mirror (det < 0) flips the winding,
+    so v1 and v2 swap to keep the inverse-transpose normal."""
+    v = v @ m[:3, :3].T + m[:3, 3]
+    if np.linalg.det(m[:3, :3]) < 0:
+        v = v[:, [0, 2, 1]]
+    return v
+
+
+def _mesh_key(mesh: TriangleMesh):
+    """Meshes with equal keys are stored once: the same object, or the same file with identical arrays."""
+    if mesh.source is None:
+        return ("id", id(mesh))
+    return ("src", mesh.source, mesh.vertices.shape, mesh.faces.shape,
+            hash(mesh.vertices.tobytes()), hash(mesh.faces.tobytes()))
 
 
 def compile_scene(scene: Scene) -> CompiledScene:
-    """Flatten the scene's object tree into arrays, applying every transform."""
+    """Flatten the scene's object tree into arrays, applying every transform. A mesh placed more than once (the
+    same object, or the same file with identical arrays) is stored once, as instances."""
     tris: list[np.ndarray] = []
     tri_mat: list[np.ndarray] = []
     sph: list[tuple] = []
     planes: list[tuple] = []
+    uses: dict = {}
+
+    def count(obj) -> None:
+        if isinstance(obj, Group):
+            for child in obj.objects:
+                count(child)
+        elif isinstance(obj, Transform):
+            count(obj.object)
+        elif isinstance(obj, TriangleMesh):
+            key = _mesh_key(obj)
+            uses[key] = uses.get(key, 0) + 1
+
+    count(scene.group)
+    mesh_index: dict = {}
+    meshes: list[np.ndarray] = []
+    instances: list[tuple] = []
 
     def visit(obj, m: np.ndarray) -> None:
         if isinstance(obj, Group):
@@ -125,14 +243,18 @@ def compile_scene(scene: Scene) -> CompiledScene:
             dw = d - n @ inv[:3, 3]
             length = np.linalg.norm(nw)
             planes.append((nw / length, dw / length, obj.material))
+        elif isinstance(obj, TriangleMesh) and uses[_mesh_key(obj)] > 1:
+            key = _mesh_key(obj)
+            if key not in mesh_index:
+                mesh_index[key] = len(meshes)
+                meshes.append(np.ascontiguousarray(obj.vertices[obj.faces]))
+            instances.append((mesh_index[key], m, obj.material))
         elif isinstance(obj, (Triangle, TriangleMesh)):
             if isinstance(obj, Triangle):
                 v = np.array([[obj.vertex0, obj.vertex1, obj.vertex2]])
             else:
                 v = obj.vertices[obj.faces]
-            v = v @ m[:3, :3].T + m[:3, 3]
-            if np.linalg.det(m[:3, :3]) < 0:  # a mirror flips the winding; keep the inverse-transpose normal
-                v = v[:, [0, 2, 1]]
+            v = _place(v, m)  # a mirror flips the winding; _place keeps the inverse-transpose normal
             tris.append(v)
             tri_mat.append(np.full(len(v), obj.material, dtype=np.int32))
         else:
@@ -150,4 +272,8 @@ def compile_scene(scene: Scene) -> CompiledScene:
         plane_normal=np.array([p[0] for p in planes], dtype=np.float64).reshape(-1, 3),
         plane_offset=np.array([p[1] for p in planes], dtype=np.float64),
         plane_material=np.array([p[2] for p in planes], dtype=np.int32),
+        mesh_triangles=tuple(meshes),
+        instance_mesh=np.array([i[0] for i in instances], dtype=np.int32),
+        instance_matrix=np.array([i[1] for i in instances], dtype=np.float64).reshape(-1, 4, 4),
+        instance_material=np.array([i[2] for i in instances], dtype=np.int32),
     )

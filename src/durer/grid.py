@@ -87,6 +87,7 @@ class GridAccelerator:
         if len(dims) != 3 or min(dims) < 1:
             raise ValueError(f"grid needs three positive cell counts, got {dims}")
         self.cs = cs
+        cs = cs.flat  # the grid stores world-space triangles: instances flattened (same triangle ids)
         self.dims = np.array(dims, dtype=np.int64)
         identity = np.zeros((3, 4))
         identity[:, :3] = np.eye(3)
@@ -148,7 +149,7 @@ class GridAccelerator:
 
     def _geometry(self):
         cs = self.cs
-        return (self.lo, self.box, self.size, self.dims, self.start, self.items, cs.triangles, cs.sphere_center,
+        return (self.lo, self.box, self.size, self.dims, self.start, self.items, cs.flat.triangles, cs.sphere_center,
                 cs.sphere_radius, cs.sphere_world_to_object, cs.plane_normal, cs.plane_offset)
 
     def _counters(self, n: int) -> tuple[bool, np.ndarray, np.ndarray]:

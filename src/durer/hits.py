@@ -44,7 +44,7 @@ class BruteForce:
         self.cs = cs
 
     def _geometry(self):
-        cs = self.cs
+        cs = self.cs.flat  # instances flattened (same triangle ids)
         return (cs.triangles, cs.sphere_center, cs.sphere_radius, cs.sphere_world_to_object,
                 cs.plane_normal, cs.plane_offset)
 
@@ -74,7 +74,7 @@ def geometric_normals(cs: CompiledScene, hits: Hits, points: np.ndarray) -> np.n
     n = np.zeros((len(hits.t), 3))
     m = hits.kind == TRIANGLE
     if m.any():
-        tri = cs.triangles[hits.prim[m]]
+        tri = cs.triangle(hits.prim[m])
         n[m] = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     m = hits.kind == SPHERE
     if m.any():
@@ -94,7 +94,10 @@ def geometric_normals(cs: CompiledScene, hits: Hits, points: np.ndarray) -> np.n
 def hit_materials(cs: CompiledScene, hits: Hits) -> np.ndarray:
     """Material index of each hit (-1 on a miss)."""
     mat = np.full(len(hits.t), -1, dtype=np.int32)
-    for kind, table in ((TRIANGLE, cs.triangle_material), (SPHERE, cs.sphere_material), (PLANE, cs.plane_material)):
+    m = hits.kind == TRIANGLE
+    if m.any():
+        mat[m] = cs.triangle_materials(hits.prim[m])
+    for kind, table in ((SPHERE, cs.sphere_material), (PLANE, cs.plane_material)):
         m = hits.kind == kind
         if m.any():
             mat[m] = table[hits.prim[m]]
