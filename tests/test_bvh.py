@@ -108,6 +108,33 @@ def test_bvh_equals_brute_force_on_coherent_rays(seed, n_tri, n_sph, n_plane, or
     np.testing.assert_array_equal(bvh.any_hit(o, d, t_min, t_max), brute.any_hit(o, d, t_min, t_max))
 
 
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(1, 400), n_sph=st.integers(0, 6), ortho=st.booleans())
+def test_tile_order_changes_nothing_but_speed(seed, n_tri, n_sph, ortho):
+    """Rays said to form an image (width > 0) are traced in 4 x 4 tiles; every output stays where it was."""
+    rng = np.random.default_rng(seed)
+    cs = compile_scene(_random_scene(rng, n_tri, n_sph, 0))
+    bvh, brute = BVHAccelerator(cs), BruteForce(cs)
+    o, d = _pinhole_rays(rng, 48, ortho)
+    t_min = -np.inf if ortho else 1e-4
+    h, ref = bvh.closest_hit(o, d, t_min=t_min, width=48), brute.closest_hit(o, d, t_min=t_min)
+    _assert_same(h, ref)
+    np.testing.assert_array_equal(h.t, ref.t)
+    t_max = rng.uniform(0.0, 12.0, len(o))
+    np.testing.assert_array_equal(bvh.any_hit(o, d, t_min, t_max, width=48), brute.any_hit(o, d, t_min, t_max))
+
+
+def test_width_that_does_not_tile_the_rays_is_ignored():
+    from durer.kernels.bvh import image_width
+
+    assert image_width((8, 12)) == 12 and image_width((2, 8, 12)) == 12
+    assert image_width((6, 12)) == 0 and image_width((8, 10)) == 0 and image_width((64,)) == 0
+    cs = compile_scene(Scene(camera=None, group=Group([Sphere(np.array([0, 0, 5.0]), 1.0)])))
+    o, d = np.zeros((10, 3)), np.tile([0.0, 0.0, 1.0], (10, 1))
+    for width in (0, 4, 5, -4):  # 10 rays are no whole rows of 4 x 4 tiles: traced in their own order
+        assert (BVHAccelerator(cs).closest_hit(o, d, width=width).t == 4.0).all()
+
+
 def test_empty_scene_and_single_primitive():
     o, d = np.zeros((3, 3)), np.array([[0, 0, 1.0], [0, 1.0, 0], [1.0, 0, 0]])
     h = BVHAccelerator(compile_scene(Scene(camera=None, group=Group([])))).closest_hit(o, d)

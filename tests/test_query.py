@@ -145,6 +145,34 @@ def test_instances_equal_moved_vertices(sphere_mesh):
     np.testing.assert_array_equal(inst.count_intersections(o, d), moved.count_intersections(o, d))
 
 
+def test_one_instance_takes_the_packet_kernels_with_the_same_answers(sphere_mesh):
+    """A scene of one (transformed) instance is traced by the one-level packet kernels, a scene of two by the
+    two-level ones: where the second instance is out of the way, both give the same hits to the bit."""
+    rng = np.random.default_rng(7)
+    m = _affine(rng)
+    m[:3, :3] = m[:3, :3] @ np.diag([-1.0, 1.0, 1.0])  # mirrored too
+    one, two = RaycastingScene(), RaycastingScene()
+    one.add_triangles(sphere_mesh.vertices, sphere_mesh.faces, transform=m)
+    two.add_triangles(sphere_mesh.vertices, sphere_mesh.faces, transform=m)
+    two.add_sphere([500.0, 0.0, 0.0], 1.0)
+    rays = RaycastingScene.create_rays_pinhole(50, m[:3, 3], m[:3, 3] + [0.3, 0.5, 6.0], [0, 1, 0], 64, 48)
+    a, b = one.cast_rays(rays), two.cast_rays(rays)
+    assert 0.1 < np.isfinite(a["t_hit"]).mean() < 0.9
+    for key in ("t_hit", "geometry_ids", "primitive_ids", "primitive_uvs", "primitive_normals"):
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    np.testing.assert_array_equal(one.test_occlusions(rays, t_max=6.0), two.test_occlusions(rays, t_max=6.0))
+    ball = RaycastingScene()
+    ball.add_sphere([0.0, 0.0, 0.0], 1.0, transform=m)
+    r = ball.cast_rays(rays)
+    hit = np.isfinite(r["t_hit"])
+    x = rays[..., :3] + r["t_hit"][..., None] * rays[..., 3:]
+    # the hit point lies on the moved sphere, its normal is the ellipsoid's outward normal
+    x_obj = (x[hit] - m[:3, 3]) @ np.linalg.inv(m[:3, :3]).T
+    np.testing.assert_allclose(np.linalg.norm(x_obj, axis=1), 1.0, atol=1e-9)
+    n = x_obj @ np.linalg.inv(m[:3, :3])
+    np.testing.assert_allclose(r["primitive_normals"][hit], n / np.linalg.norm(n, axis=1, keepdims=True), atol=1e-9)
+
+
 def test_transformed_sphere_is_an_ellipsoid():
     s = RaycastingScene()
     m = np.diag([2.0, 1.0, 1.0, 1.0])

@@ -20,8 +20,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bvh import WideBVH, build_tree
-from .kernels.bvh import SPHERE, TRIANGLE, build_wide_bvh, stack_size_for
-from .kernels.instances import all_hits_instances, any_hit_instances, closest_hit_instances
+from .kernels.bvh import (
+    SPHERE,
+    any_hit_bvh,
+    build_wide_bvh,
+    closest_hit_bvh,
+    image_width,
+    run_blocks,
+    stack_size_for,
+)
+from .kernels.instances import (
+    all_hits_instances,
+    any_hit_instances,
+    closest_hit_instances,
+    hit_normals,
+    rays_to_object,
+)
 
 INVALID_ID = -1
 
@@ -47,7 +61,8 @@ def _finite_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
         want = "(..., " + ", ".join(map(str, shape_tail)) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
     arr = np.ascontiguousarray(arr, dtype=np.float64)
-    if not np.isfinite(arr).all():
+    # one pass: a NaN or infinity makes the sum non-finite (finite values overflowing it get the full check)
+    if not np.isfinite(arr.sum()) and not np.isfinite(arr).all():
         raise ValueError(f"{name} contains NaN or infinity")
     return arr
 
@@ -219,6 +234,7 @@ class RaycastingScene:
             stack=stack_size_for(depth), tri_off=np.array(tri_off + [n_tri], np.int64),
             sph_off=np.array(sph_off + [n_sph], np.int64), normals=normals,
             inst_shape=np.array([s for s, _ in self._instances], dtype=np.int64), o2w=o2w, w2o=w2o,
+            inst_sign=np.sign(np.linalg.det(w2o[:, :, :3])) if k else np.zeros(0),
         )
         self.build_seconds = time.perf_counter() - start + sum(s.build_seconds for s in self._shapes)
         return self._packed
@@ -226,6 +242,22 @@ class RaycastingScene:
     def _args(self):
         p = self._pack()
         return (*p["top"], *p["blas"], p["stack"])
+
+    def _one_level(self, o, d):
+        """With a single instance (one mesh or sphere: the common case), its tree is traced directly by the
+        one-level kernels of kernels/bvh.py, which trace coherent rays in packets, instead of the two-level
+        kernels; the rays move into the instance's object space first (t is unchanged). Returns the rays and
+        the kernels' tree arguments, or None when the scene has several instances."""
+        if len(self._instances) != 1:
+            return None
+        p = self._pack()
+        w2o = p["w2o"][0]
+        if not np.array_equal(w2o, np.eye(4)[:3]):
+            oo, dd = np.empty_like(o), np.empty_like(d)
+            rays_to_object(o, d, w2o, oo, dd)
+            o, d = oo, dd
+        no_planes = (np.zeros((0, 3)), np.zeros(0))
+        return o, d, (*p["blas"], *no_planes, p["stack"])
 
     # ------------------------------------------------------------------------------------------------ rays
     def _rays(self, origins, directions, t_min, t_max):
@@ -235,17 +267,18 @@ class RaycastingScene:
             if rays.ndim < 1 or rays.shape[-1] != 6:
                 raise ValueError(f"rays must have shape (..., 6) when no directions are given, got {rays.shape}")
             rays = _finite_array("rays", rays, (6,))
-            origins, directions = rays[..., :3], rays[..., 3:]
-        o = _finite_array("origins", origins, (3,))
-        d = _finite_array("directions", directions, (3,))
+            o, d = np.ascontiguousarray(rays[..., :3]), np.ascontiguousarray(rays[..., 3:])
+        else:
+            o = _finite_array("origins", origins, (3,))
+            d = _finite_array("directions", directions, (3,))
         if o.shape != d.shape:
             raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
         lead = o.shape[:-1]
         o = o.reshape(-1, 3)
         d = d.reshape(-1, 3)
-        if len(d) and not np.any(d != 0.0, axis=1).all():
-            i = int(np.argmin(np.any(d != 0.0, axis=1)))
-            raise ValueError(f"direction {i} is zero")
+        zero = (d[:, 0] == 0.0) & (d[:, 1] == 0.0) & (d[:, 2] == 0.0)
+        if zero.any():
+            raise ValueError(f"direction {int(np.argmax(zero))} is zero")
         lo = self._interval("t_min", t_min, lead)
         hi = self._interval("t_max", t_max, lead)
         return o, d, lo, hi, lead
@@ -277,7 +310,11 @@ class RaycastingScene:
         prim = np.empty(n, np.int32)
         u = np.empty(n)
         v = np.empty(n)
-        if self._instances and n:
+        one = self._one_level(o, d) if n else None
+        if one is not None:
+            run_blocks(closest_hit_bvh, n, one[0], one[1], lo, hi, *one[2], image_width(lead), t, kind, prim, u, v)
+            inst[:] = np.where(kind != 0, 0, INVALID_ID)
+        elif self._instances and n:
             closest_hit_instances(o, d, lo, hi, *self._args(), t, inst, kind, prim, u, v)
         else:
             t[:], inst[:], kind[:], prim[:], u[:], v[:] = np.inf, -1, 0, -1, 0.0, 0.0
@@ -293,35 +330,20 @@ class RaycastingScene:
 
     def _normals(self, o, d, t, inst, kind, prim) -> np.ndarray:
         out = np.zeros((len(t), 3))
-        if not self._instances:
-            return out
-        p = self._pack()
-        m = kind == TRIANGLE
-        if m.any():
-            k = inst[m]
-            n_obj = p["normals"][p["tri_off"][p["inst_shape"][k]] + prim[m]]
-            w2o = p["w2o"][k]
-            # normals move by the inverse transpose; a mirror flips the winding, as moved vertices would
-            n = np.einsum("kji,kj->ki", w2o[:, :, :3], n_obj)
-            n *= np.sign(np.linalg.det(w2o[:, :, :3]))[:, None]
-            out[m] = n
-        m = kind == SPHERE
-        if m.any():
-            k = inst[m]
-            w2o = p["w2o"][k]
-            x = o[m] + t[m, None] * d[m]
-            x_obj = np.einsum("kij,kj->ki", w2o[:, :, :3], x) + w2o[:, :, 3]
-            n_obj = x_obj - self._packed["blas"][4][prim[m]]
-            out[m] = np.einsum("kji,kj->ki", w2o[:, :, :3], n_obj)
-        length = np.linalg.norm(out, axis=1, keepdims=True)
-        np.divide(out, length, out=out, where=length > 0)
+        if self._instances:
+            p = self._pack()
+            hit_normals(o, d, t, inst, kind, prim, p["inst_shape"], p["tri_off"], p["normals"], p["w2o"],
+                        p["inst_sign"], p["blas"][4], out)
         return out
 
     def test_occlusions(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> np.ndarray:
         """True for each ray that hits anything with t_min < t < t_max (stops at the first hit found)."""
         o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
         out = np.zeros(len(o), dtype=np.bool_)
-        if self._instances and len(o):
+        one = self._one_level(o, d) if len(o) else None
+        if one is not None:
+            run_blocks(any_hit_bvh, len(o), one[0], one[1], lo, hi, *one[2], image_width(lead), out)
+        elif self._instances and len(o):
             any_hit_instances(o, d, lo, hi, *self._args(), out)
         return out.reshape(lead)
 

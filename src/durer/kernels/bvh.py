@@ -579,8 +579,9 @@ def _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min, best):
 # the one-ray path (the same slab test, the same watertight test with the same constants), so t, u, v agree to
 # the bit; only the visit order differs, which can change the primitive named on an exact tie in t.
 # Scratch rows of `rr` (float64, (_NROW, PACKET)):
-_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ = range(20)
-_NROW = 20
+(_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
+ _NEAR, _PRIM) = range(22)
+_NROW = 22
 PACKET = 16
 
 
@@ -602,16 +603,36 @@ def _shear_axes(dx, dy, dz):
     return kx, ky, kz
 
 
+@nb.njit(**JIT, inline="always")
+def chunk_rays(c, n, width, idx):
+    """The rays of chunk c into idx; returns how many. width = 0: rays c * PACKET onwards, in order. width > 0
+    (the rays are an image `width` wide, both sides multiples of 4): the 4 x 4 tile c, row by row, whose rays
+    are closer together than a 16 x 1 strip's, so a packet visits fewer nodes."""
+    if width == 0:
+        i0 = c * PACKET
+        m = min(n, i0 + PACKET) - i0
+        for k in range(m):
+            idx[k] = i0 + k
+        return m
+    tiles = width // 4
+    ty = c // tiles
+    tx = c - ty * tiles
+    for k in range(PACKET):
+        idx[k] = (4 * ty + k // 4) * width + 4 * tx + (k & 3)
+    return PACKET
+
+
 @nb.njit(**JIT)
-def packet_setup(origins, directions, t_min, t_max, i0, n, rr, kinds, prims):
-    """Load rays i0..i0+n into the scratch rows (padding rays never hit) and return (coherent, nrx, nry, nrz,
+def packet_setup(origins, directions, t_min, t_max, idx, n, rr):
+    """Load rays idx[:n] into the scratch rows (padding rays never hit) and return (coherent, nrx, nry, nrz,
     kx, ky, kz): coherent when all n rays share direction signs and axis permutation. Only then are the
     per-ray constants computed (in a loop over rays that vectorises, with ray_setup's exact operations)."""
+    i0 = idx[0]
     kx0, ky0, kz0 = _shear_axes(directions[i0, 0], directions[i0, 1], directions[i0, 2])
     s0 = (directions[i0, 0] < 0.0) + 2 * (directions[i0, 1] < 0.0) + 4 * (directions[i0, 2] < 0.0)
     coherent = True
     for k in range(PACKET):
-        i = i0 + k if k < n else i0
+        i = idx[k] if k < n else i0
         dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
         kx, ky, kz = _shear_axes(dx, dy, dz)
         sgn = (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0)
@@ -641,8 +662,7 @@ def packet_setup(origins, directions, t_min, t_max, i0, n, rr, kinds, prims):
         rr[_E1, k] = 0.0
         rr[_E2, k] = 0.0
         rr[_DET, k] = 1.0
-        kinds[k] = 0
-        prims[k] = -1
+        rr[_PRIM, k] = -np.inf
     # near-plane row offsets as in ray_setup (a zero component counts as positive there too)
     nrx = 12 if rr[_IX, 0] < 0.0 else 0
     nry = 16 if rr[_IY, 0] < 0.0 else 4
@@ -652,7 +672,8 @@ def packet_setup(origins, directions, t_min, t_max, i0, n, rr, kinds, prims):
 
 @nb.njit(**JIT, inline="always")
 def _packet_box(bounds, base, nrx, nry, nrz, rr, hit):
-    """hit[k] = whether packet ray k meets the box at flat offset `base` within [t_min, best]; returns the count."""
+    """hit[k] = whether packet ray k meets the box at flat offset `base` within [t_min, best], and its entry
+    distance in row _NEAR (inf for a miss); returns the count."""
     bnx = np.float64(bounds[base + nrx])
     bfx = np.float64(bounds[base + 12 - nrx])
     bny = np.float64(bounds[base + nry])
@@ -680,12 +701,12 @@ def _packet_box(bounds, base, nrx, nry, nrz, rr, hit):
         h = tn <= tf + abs(tf) * FAR_WIDEN
         hit[k] = h
         cnt += np.int32(h)
+        rr[_NEAR, k] = tn if h else np.inf
     return cnt
 
 
 @nb.njit(**JIT, inline="always")
-def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, hit, kinds, prims,
-                 any_mode):
+def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, hit, any_mode):
     """Test a leaf's items against the packet rays flagged in hit; records closer hits (any_mode: a hit sets
     the ray's best to -inf, which retires it)."""
     v = -code - 1
@@ -694,6 +715,7 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
         p = leaf_prim[j]
         if p >= 0:
             base = j * 9
+            fp = np.float64(p)
             ax0, ay0, az0 = leaf_tri[base + kx], leaf_tri[base + ky], leaf_tri[base + kz]
             bx0, by0, bz0 = leaf_tri[base + 3 + kx], leaf_tri[base + 3 + ky], leaf_tri[base + 3 + kz]
             cx0, cy0, cz0 = leaf_tri[base + 6 + kx], leaf_tri[base + 6 + ky], leaf_tri[base + 6 + kz]
@@ -724,8 +746,7 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                     rr[_E1, k] = e1 if ok else rr[_E1, k]
                     rr[_E2, k] = e2 if ok else rr[_E2, k]
                     rr[_DET, k] = det if ok else rr[_DET, k]
-                    prims[k] = p if ok else prims[k]
-                    kinds[k] = TRIANGLE if ok else kinds[k]
+                    rr[_PRIM, k] = fp if ok else rr[_PRIM, k]
         else:
             s = -p - 1
             for k in range(PACKET):
@@ -740,23 +761,26 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                         else:
                             rr[_BEST, k] = t
                             rr[_E1, k], rr[_E2, k], rr[_DET, k] = 0.0, 0.0, 1.0
-                            prims[k] = s
-                            kinds[k] = SPHERE
+                            rr[_PRIM, k] = -(s + 1.0)
 
 
 @nb.njit(**JIT)
 def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                    nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, key, order, any_mode):
+                    nrx, nry, nrz, kx, ky, kz, rr, hits, stack_node, stack_t, key, order, any_mode):
     """Traverse one tree with a coherent packet (see above). hits (4, PACKET) bool, key (4,) float64 and order
-    (4,) int64 are scratch. Children are
-    ordered by the entry distance of the packet's middle ray; leaves met in a node are tested at once."""
-    mid = PACKET // 2
-    ox, oy, oz = rr[_OX, mid], rr[_OY, mid], rr[_OZ, mid]
-    ix, iy, iz = rr[_IX, mid], rr[_IY, mid], rr[_IZ, mid]
+    (4,) int64 are scratch. Children are ordered by the nearest entry distance among the packet's rays, which
+    the stack keeps: a node is skipped when it lies beyond every ray's closest hit so far. Leaves met in a node
+    are tested at once."""
     stack_node[0] = root
+    stack_t[0] = -np.inf
     sp = 1
+    far = _packet_far(rr)
     while sp > 0:
         sp -= 1
+        if far == -np.inf:
+            break  # every ray has retired (any-hit)
+        if stack_t[sp] > far + abs(far) * FAR_WIDEN:
+            continue  # no ray's box test could pass below this node (children lie inside its box)
         node = stack_node[sp]
         base = node * 24
         n_in = 0
@@ -766,11 +790,9 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
                 continue
             if _packet_box(bounds, base + lane, nrx, nry, nrz, rr, hits[lane]) == 0:
                 continue
-            # sort key: the middle ray's entry distance (slab near planes only)
-            a = (np.float64(bounds[base + lane + nrx]) - ox) * ix
-            b = (np.float64(bounds[base + lane + nry]) - oy) * iy
-            e = (np.float64(bounds[base + lane + nrz]) - oz) * iz
-            kk = max(a, b, e)
+            kk = np.inf  # a separate loop: a min reduction inside _packet_box's loop is not vectorised
+            for k in range(PACKET):
+                kk = min(kk, rr[_NEAR, k])
             j = n_in
             while j > 0 and key[j - 1] > kk:   # insertion sort, nearest first
                 key[j] = key[j - 1]
@@ -785,12 +807,24 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
             c = child[node, lane]
             if c < 0:
                 _packet_leaf(c, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, hits[lane],
-                             kinds, prims, any_mode)
+                             any_mode)
+                far = _packet_far(rr)
         for q in range(n_in - 1, -1, -1):
             c = child[node, order[q]]
             if c > 0:
                 stack_node[sp] = c
+                stack_t[sp] = key[q]
                 sp += 1
+
+
+@nb.njit(**JIT, inline="always")
+def _packet_far(rr):
+    """The farthest closest-hit-so-far among the packet's rays (-inf once all have retired)."""
+    far = -np.inf
+    for k in range(PACKET):
+        b = rr[_BEST, k]
+        far = b if b > far else far
+    return far
 
 
 # ----------------------------------------------------------------------------------------------- one-level kernels
@@ -798,7 +832,7 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
 @nb.njit(**JIT)
 def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
                     sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size,
-                    t_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
+                    width, t_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
     """Closest hit of rays in blocks blk0..blk1 (BLOCK * PACKET rays each) against one tree (root 0) and the
     planes beside it; fills the Hits arrays. Chunks of PACKET rays that are coherent go through
     packet_traverse, the others one ray at a time. Serial and nogil: run_blocks spreads the blocks over
@@ -810,17 +844,14 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
     dist = np.empty(4)
     rr = np.empty((_NROW, PACKET))
     hits = np.empty((4, PACKET), np.bool_)
-    kinds = np.empty(PACKET, np.int32)
-    prims = np.empty(PACKET, np.int32)
     pprims = np.empty(PACKET, np.int32)
     key = np.empty(4)
     order = np.empty(4, np.int64)
+    idx = np.empty(PACKET, np.int64)
     for blk in range(blk0, blk1):
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
-            i0 = c * PACKET
-            m = min(n, i0 + PACKET) - i0
-            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, i0, m, rr,
-                                                               kinds, prims)
+            m = chunk_rays(c, n, width, idx)
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr)
             if coherent and m == PACKET:
                 for k in range(PACKET):
                     best, pprims[k] = _planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
@@ -828,14 +859,14 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                                                       rr[_BEST, k])
                     rr[_BEST, k] = best
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, key, order, False)
+                                nrx, nry, nrz, kx, ky, kz, rr, hits, stack_node, stack_t, key, order, False)
                 for k in range(PACKET):
-                    i = i0 + k
-                    kind = kinds[k]
-                    if kind != 0:
+                    i = idx[k]
+                    pr = rr[_PRIM, k]  # triangle id, -(sphere + 1), or -inf: nothing in the tree was hit
+                    if pr > -np.inf:
                         t_out[i] = rr[_BEST, k]
-                        kind_out[i] = kind
-                        prim_out[i] = prims[k]
+                        kind_out[i] = TRIANGLE if pr >= 0.0 else SPHERE
+                        prim_out[i] = np.int32(pr) if pr >= 0.0 else np.int32(-pr - 1.0)
                         u_out[i] = rr[_E1, k] / rr[_DET, k]
                         v_out[i] = rr[_E2, k] / rr[_DET, k]
                     elif pprims[k] >= 0:
@@ -843,7 +874,8 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                     else:
                         t_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = np.inf, 0, -1, 0.0, 0.0
                 continue
-            for i in range(i0, i0 + m):
+            for q in range(m):
+                i = idx[q]
                 ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
                 dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
                 lo = t_min[i]
@@ -862,25 +894,23 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
 
 @nb.njit(**JIT)
 def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
-                sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size, out, blk0, blk1):
+                sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size, width, out, blk0, blk1):
     """out[i] = whether ray i (in blocks blk0..blk1) hits anything with t_min < t < t_max; planes first, then
     the tree (in packets when coherent, as in closest_hit_bvh)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
     stack_node = np.empty(stack_size, np.int32)
+    stack_t = np.empty(stack_size)
     dist = np.empty(4)
     rr = np.empty((_NROW, PACKET))
     hits = np.empty((4, PACKET), np.bool_)
-    kinds = np.empty(PACKET, np.int32)
-    prims = np.empty(PACKET, np.int32)
     key = np.empty(4)
     order = np.empty(4, np.int64)
+    idx = np.empty(PACKET, np.int64)
     for blk in range(blk0, blk1):
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
-            i0 = c * PACKET
-            m = min(n, i0 + PACKET) - i0
-            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, i0, m, rr,
-                                                               kinds, prims)
+            m = chunk_rays(c, n, width, idx)
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr)
             if coherent and m == PACKET:
                 for k in range(PACKET):
                     _, pprim = _planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
@@ -888,11 +918,12 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                     if pprim >= 0:
                         rr[_BEST, k] = -np.inf
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, hits, kinds, prims, stack_node, key, order, True)
+                                nrx, nry, nrz, kx, ky, kz, rr, hits, stack_node, stack_t, key, order, True)
                 for k in range(PACKET):
-                    out[i0 + k] = rr[_BEST, k] == -np.inf
+                    out[idx[k]] = rr[_BEST, k] == -np.inf
                 continue
-            for i in range(i0, i0 + m):
+            for q in range(m):
+                i = idx[q]
                 ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
                 dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
                 _, pprim = _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min[i], t_max[i])
@@ -901,6 +932,14 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                 else:
                     out[i] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                                       ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node, dist)
+
+
+def image_width(shape: tuple[int, ...]) -> int:
+    """The `width` argument of closest_hit_bvh / any_hit_bvh for rays laid out as `shape` (leading dimensions):
+    the image width when the rays form an image whose sides are multiples of 4 (4 x 4 tile packets), else 0."""
+    if len(shape) >= 2 and shape[-1] % 4 == 0 and shape[-2] % 4 == 0 and shape[-1] > 0 and shape[-2] > 0:
+        return int(shape[-1])
+    return 0
 
 
 def n_blocks(n_rays: int) -> int:
@@ -986,8 +1025,6 @@ def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     return bounds, child, order, int(depth)
 
 
-__all__ = ["build_wide_bvh", "run_blocks", "n_blocks", "item_boxes", "leaf_items", "closest_hit_bvh", "any_hit_bvh",
-           "blas_closest",
-           "blas_any", "blas_all",
-           "push_nearest_first", "node_dists", "ray_setup",
+__all__ = ["build_wide_bvh", "run_blocks", "image_width", "n_blocks", "item_boxes", "leaf_items", "closest_hit_bvh",
+           "any_hit_bvh", "blas_closest", "blas_any", "blas_all", "push_nearest_first", "node_dists", "ray_setup",
            "stack_size_for"]

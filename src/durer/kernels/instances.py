@@ -11,7 +11,18 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh import JIT, RAY_CHUNK, blas_all, blas_any, blas_closest, node_dists, push_nearest_first, ray_setup
+from .bvh import (
+    JIT,
+    RAY_CHUNK,
+    SPHERE,
+    TRIANGLE,
+    blas_all,
+    blas_any,
+    blas_closest,
+    node_dists,
+    push_nearest_first,
+    ray_setup,
+)
 
 
 @nb.njit(**JIT, inline="always")
@@ -24,6 +35,51 @@ def _to_object(w2o, ox, oy, oz, dx, dy, dz):
             m[0, 0] * dx + m[0, 1] * dy + m[0, 2] * dz,
             m[1, 0] * dx + m[1, 1] * dy + m[1, 2] * dz,
             m[2, 0] * dx + m[2, 1] * dy + m[2, 2] * dz)
+
+
+@nb.njit(**JIT)
+def rays_to_object(origins, directions, w2o, out_o, out_d):
+    """All rays moved into one instance's object space, with the arithmetic of the two-level kernels (so a
+    scene of one instance traced by the one-level kernels gets the same t to the bit)."""
+    for i in range(origins.shape[0]):
+        (out_o[i, 0], out_o[i, 1], out_o[i, 2], out_d[i, 0], out_d[i, 1],
+         out_d[i, 2]) = _to_object(w2o, origins[i, 0], origins[i, 1], origins[i, 2],
+                                   directions[i, 0], directions[i, 1], directions[i, 2])
+
+
+@nb.njit(**JIT, parallel=True)
+def hit_normals(origins, directions, t, inst, kind, prim, inst_shape, tri_off, tri_normals, inst_w2o, inst_sign,
+                sph_center, out):
+    """Unit world-space normal of each closest hit (zero on a miss). Triangles: the stored object-space normal
+    by the instance's inverse transpose, flipped under a mirror as moved vertices would flip the winding;
+    spheres: outward, from the hit point in object space."""
+    for i in nb.prange(t.shape[0]):
+        k = inst[i]
+        nx = ny = nz = 0.0
+        if kind[i] == TRIANGLE:
+            j = tri_off[inst_shape[k]] + prim[i]
+            ax, ay, az = tri_normals[j, 0], tri_normals[j, 1], tri_normals[j, 2]
+        elif kind[i] == SPHERE:
+            m = inst_w2o[k]
+            px = origins[i, 0] + t[i] * directions[i, 0]
+            py = origins[i, 1] + t[i] * directions[i, 1]
+            pz = origins[i, 2] + t[i] * directions[i, 2]
+            c = prim[i]
+            ax = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3] - sph_center[c, 0]
+            ay = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3] - sph_center[c, 1]
+            az = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3] - sph_center[c, 2]
+        else:
+            out[i, 0] = out[i, 1] = out[i, 2] = 0.0
+            continue
+        m = inst_w2o[k]
+        sign = inst_sign[k] if kind[i] == TRIANGLE else 1.0
+        nx = sign * (m[0, 0] * ax + m[1, 0] * ay + m[2, 0] * az)
+        ny = sign * (m[0, 1] * ax + m[1, 1] * ay + m[2, 1] * az)
+        nz = sign * (m[0, 2] * ax + m[1, 2] * ay + m[2, 2] * az)
+        length = np.sqrt(nx * nx + ny * ny + nz * nz)
+        if length > 0.0:
+            nx, ny, nz = nx / length, ny / length, nz / length
+        out[i, 0], out[i, 1], out[i, 2] = nx, ny, nz
 
 
 @nb.njit(**JIT, parallel=True)
