@@ -225,6 +225,8 @@ def test_empty_scene_misses():
     (lambda s: s.cast_rays(np.zeros((2, 3)), np.zeros((2, 3))), "zero"),
     (lambda s: s.cast_rays([[0, 0, np.nan]], [[0, 0, 1]]), "NaN"),
     (lambda s: s.cast_rays([[0, 0, 0]], [[0, 0, np.inf]]), "infinity"),
+    (lambda s: s.cast_rays([[0, 0, 0, 0, 0, 1], [0, 0, 0, 0, np.nan, 1]]), r"rays contains NaN or infinity \(ray 1\)"),
+    (lambda s: s.cast_rays(np.zeros((3, 3)), [[0, 0, 1], [0, 0, 1], [-np.inf, 0, 1]]), r"directions .*\(ray 2\)"),
     (lambda s: s.cast_rays([[0, 0, 0]], [[0, 0, 1]], t_min=np.nan), "t_min"),
     (lambda s: s.cast_rays([[0, 0, 0]], [[0, 0, 1]], t_max=[1.0, 2.0]), "t_max"),
     (lambda s: s.test_occlusions(np.zeros((1, 3)), np.zeros((1, 3))), "zero"),

@@ -36,6 +36,7 @@ from .kernels.instances import (
     hit_normals,
     rays_to_object,
 )
+from .kernels.rays import first_problem, n_chunks, split_checked_rays
 
 INVALID_ID = -1
 
@@ -53,16 +54,21 @@ class _Shape:
     build_seconds: float
 
 
-def _finite_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
+def _numeric_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
+    """a as a float64 array (..., *shape_tail), not necessarily contiguous; ValueError naming `name` otherwise."""
     arr = np.asarray(a)
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
     if arr.ndim < len(shape_tail) or tuple(arr.shape[arr.ndim - len(shape_tail):]) != shape_tail:
         want = "(..., " + ", ".join(map(str, shape_tail)) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
-    arr = np.ascontiguousarray(arr, dtype=np.float64)
-    # one pass: a NaN or infinity makes the sum non-finite (finite values overflowing it get the full check)
-    if not np.isfinite(arr.sum()) and not np.isfinite(arr).all():
+    return arr.astype(np.float64, copy=False)
+
+
+def _finite_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
+    """_numeric_array, C-contiguous, and free of NaN and infinity."""
+    arr = np.ascontiguousarray(_numeric_array(name, a, shape_tail))
+    if not np.isfinite(arr).all():
         raise ValueError(f"{name} contains NaN or infinity")
     return arr
 
@@ -263,22 +269,28 @@ class RaycastingScene:
     def _rays(self, origins, directions, t_min, t_max):
         """Validate and flatten: (origins (N,3), directions (N,3), t_min (N,), t_max (N,), leading shape)."""
         if directions is None:
-            rays = np.asarray(origins)
+            rays = _numeric_array("rays", origins, (6,))
             if rays.ndim < 1 or rays.shape[-1] != 6:
                 raise ValueError(f"rays must have shape (..., 6) when no directions are given, got {rays.shape}")
-            rays = _finite_array("rays", rays, (6,))
-            o, d = np.ascontiguousarray(rays[..., :3]), np.ascontiguousarray(rays[..., 3:])
+            lead = rays.shape[:-1]
+            rays = rays.reshape(-1, 6)
+            src_o, src_d, names = rays[:, :3], rays[:, 3:], ("rays", "rays")
         else:
-            o = _finite_array("origins", origins, (3,))
-            d = _finite_array("directions", directions, (3,))
-        if o.shape != d.shape:
-            raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
-        lead = o.shape[:-1]
-        o = o.reshape(-1, 3)
-        d = d.reshape(-1, 3)
-        zero = (d[:, 0] == 0.0) & (d[:, 1] == 0.0) & (d[:, 2] == 0.0)
-        if zero.any():
-            raise ValueError(f"direction {int(np.argmax(zero))} is zero")
+            src_o = _numeric_array("origins", origins, (3,))
+            src_d = _numeric_array("directions", directions, (3,))
+            if src_o.shape != src_d.shape:
+                raise ValueError(f"origins {src_o.shape} and directions {src_d.shape} must have the same shape")
+            lead = src_o.shape[:-1]
+            src_o, src_d, names = src_o.reshape(-1, 3), src_d.reshape(-1, 3), ("origins", "directions")
+        n = src_o.shape[0]
+        o, d = np.empty((n, 3)), np.empty((n, 3))
+        first = np.empty((n_chunks(n), 3), np.int64)
+        split_checked_rays(src_o, src_d, o, d, first)
+        bad, part, zero = first_problem(first)
+        if bad >= 0:
+            raise ValueError(f"{names[part]} contains NaN or infinity (ray {bad})")
+        if zero >= 0:
+            raise ValueError(f"direction {zero} is zero")
         lo = self._interval("t_min", t_min, lead)
         hi = self._interval("t_max", t_max, lead)
         return o, d, lo, hi, lead
