@@ -146,15 +146,17 @@ def test_instances_equal_moved_vertices(sphere_mesh):
 
 
 def test_one_instance_takes_the_packet_kernels_with_the_same_answers(sphere_mesh):
-    """A scene of one (transformed) instance is traced by the one-level packet kernels, a scene of two by the
-    two-level ones: where the second instance is out of the way, both give the same hits to the bit."""
+    """A scene of one (transformed) instance is traced by the one-level packet kernels, a mesh placed twice by
+    the two-level ones: where the second placement is out of the way, both give the same hits to the bit."""
     rng = np.random.default_rng(7)
     m = _affine(rng)
     m[:3, :3] = m[:3, :3] @ np.diag([-1.0, 1.0, 1.0])  # mirrored too
     one, two = RaycastingScene(), RaycastingScene()
     one.add_triangles(sphere_mesh.vertices, sphere_mesh.faces, transform=m)
-    two.add_triangles(sphere_mesh.vertices, sphere_mesh.faces, transform=m)
-    two.add_sphere([500.0, 0.0, 0.0], 1.0)
+    first = two.add_triangles(sphere_mesh.vertices, sphere_mesh.faces, transform=m)
+    far = m.copy()
+    far[:3, 3] += 500.0
+    two.add_instance(first, far)
     rays = RaycastingScene.create_rays_pinhole(50, m[:3, 3], m[:3, 3] + [0.3, 0.5, 6.0], [0, 1, 0], 64, 48)
     a, b = one.cast_rays(rays), two.cast_rays(rays)
     assert 0.1 < np.isfinite(a["t_hit"]).mean() < 0.9
@@ -171,6 +173,37 @@ def test_one_instance_takes_the_packet_kernels_with_the_same_answers(sphere_mesh
     np.testing.assert_allclose(np.linalg.norm(x_obj, axis=1), 1.0, atol=1e-9)
     n = x_obj @ np.linalg.inv(m[:3, :3])
     np.testing.assert_allclose(r["primitive_normals"][hit], n / np.linalg.norm(n, axis=1, keepdims=True), atol=1e-9)
+
+
+def test_distinct_shapes_share_one_world_space_tree(sphere_mesh):
+    """Meshes and spheres each placed once are traced through one world-space tree (packet kernels); the same
+    scene with a shape placed twice takes the two-level kernels. Both answer alike: ids, t, uvs, normals."""
+    rng = np.random.default_rng(11)
+    box = trimesh.creation.box(extents=[1.0, 2.0, 0.5])
+    mats = [_affine(rng) for _ in range(4)]
+    mats[1][:3, :3] = mats[1][:3, :3] @ np.diag([1.0, -1.0, 1.0])  # a mirror
+    for i, m in enumerate(mats):  # side by side, in view
+        m[:3, 3] = [(i - 1.5) * 2.5, 0.3 * i, 0.0]
+    flat, nested = RaycastingScene(), RaycastingScene()
+    for s in (flat, nested):
+        s.add_triangles(sphere_mesh.vertices, sphere_mesh.faces, transform=mats[0])
+        s.add_triangles(box.vertices, box.faces, transform=mats[1])
+        s.add_sphere([0.5, 0.0, 0.0], 0.7, transform=mats[2])
+    flat.add_triangles(box.vertices, box.faces, transform=mats[3])
+    nested.add_instance(1, mats[3])  # the box again: shared, so two-level
+    assert flat._pack()["flat"] is not None and nested._pack()["flat"] is None
+    rays = RaycastingScene.create_rays_pinhole(60, [0, 0, 0], [1.0, 2.0, 10.0], [0, 1, 0], 96, 64)
+    a, b = flat.cast_rays(rays), nested.cast_rays(rays)
+    hit = np.isfinite(a["t_hit"])
+    assert 0.1 < hit.mean() < 0.95 and len(np.unique(a["geometry_ids"][hit])) == 4
+    np.testing.assert_array_equal(hit, np.isfinite(b["t_hit"]))
+    np.testing.assert_allclose(a["t_hit"][hit], b["t_hit"][hit], rtol=1e-9)
+    same = a["primitive_ids"] == b["primitive_ids"]
+    assert same.mean() > 0.999
+    np.testing.assert_array_equal(a["geometry_ids"], b["geometry_ids"])
+    np.testing.assert_allclose(a["primitive_normals"][same], b["primitive_normals"][same], atol=1e-9)
+    np.testing.assert_allclose(a["primitive_uvs"][same & hit], b["primitive_uvs"][same & hit], atol=1e-7)
+    np.testing.assert_array_equal(flat.test_occlusions(rays, t_max=12.0), nested.test_occlusions(rays, t_max=12.0))
 
 
 def test_transformed_sphere_is_an_ellipsoid():

@@ -22,6 +22,7 @@ import numpy as np
 from .bvh import WideBVH, build_tree
 from .kernels.bvh import (
     SPHERE,
+    TRIANGLE,
     any_hit_bvh,
     build_wide_bvh,
     closest_hit_bvh,
@@ -242,6 +243,7 @@ class RaycastingScene:
             inst_shape=np.array([s for s, _ in self._instances], dtype=np.int64), o2w=o2w, w2o=w2o,
             inst_sign=np.sign(np.linalg.det(w2o[:, :, :3])) if k else np.zeros(0),
         )
+        self._packed["flat"] = self._flat_tree(lo, hi, np.array(sph_off, np.int64)) if k > 1 else None
         self.build_seconds = time.perf_counter() - start + sum(s.build_seconds for s in self._shapes)
         return self._packed
 
@@ -249,21 +251,78 @@ class RaycastingScene:
         p = self._pack()
         return (*p["top"], *p["blas"], p["stack"])
 
-    def _one_level(self, o, d):
-        """With a single instance (one mesh or sphere: the common case), its tree is traced directly by the
-        one-level kernels of kernels/bvh.py, which trace coherent rays in packets, instead of the two-level
-        kernels; the rays move into the instance's object space first (t is unchanged). Returns the rays and
-        the kernels' tree arguments, or None when the scene has several instances."""
-        if len(self._instances) != 1:
+    def _flat_tree(self, inst_lo, inst_hi, sph_off) -> dict | None:
+        """When no shape is placed twice, one tree over every instance's primitives in world space, so the
+        one-level packet kernels answer cast_rays and test_occlusions (the two-level kernels trace one ray at a
+        time); the per-shape trees stay for count_intersections and list_intersections. Returns the tree and
+        the maps from its triangle and sphere ids back to (instance, primitive), or None if a shape is shared."""
+        shapes = [s for s, _ in self._instances]
+        if len(set(shapes)) != len(shapes):
             return None
-        p = self._pack()
-        w2o = p["w2o"][0]
-        if not np.array_equal(w2o, np.eye(4)[:3]):
-            oo, dd = np.empty_like(o), np.empty_like(d)
-            rays_to_object(o, d, w2o, oo, dd)
-            o, d = oo, dd
-        no_planes = (np.zeros((0, 3)), np.zeros(0))
-        return o, d, (*p["blas"], *no_planes, p["stack"])
+        tris, tri_inst, tri_local, sph_c, sph_r, sph_w2o, sph_inst, sph_prim, s_lo, s_hi = ([] for _ in range(10))
+        for i, (shape_id, m) in enumerate(self._instances):
+            shape = self._shapes[shape_id]
+            if len(shape.normals):
+                obj = np.empty((len(shape.normals), 9))
+                lp = shape.tree.leaf_prim
+                obj[lp[lp >= 0]] = shape.tree.leaf_tri[lp >= 0]  # back from leaf order to triangle order
+                tris.append(obj.reshape(-1, 3, 3) @ m[:3, :3].T + m[:3, 3])
+                tri_inst.append(np.full(len(obj), i, np.int32))
+                tri_local.append(np.arange(len(obj), dtype=np.int32))
+            else:  # a sphere: tested in its object space through the instance's world-to-object matrix
+                sph_c.append(shape.center)
+                sph_r.append(shape.radius)
+                sph_w2o.append(self._packed["w2o"][i][None])
+                sph_inst.append(np.int32(i))
+                sph_prim.append(sph_off[shape_id])
+                s_lo.append(inst_lo[i])
+                s_hi.append(inst_hi[i])
+        cat = np.concatenate
+        tris = cat(tris) if tris else np.zeros((0, 3, 3))
+        tree = build_tree(tris, np.array(s_lo).reshape(-1, 3), np.array(s_hi).reshape(-1, 3))
+        return dict(
+            args=(tree.bounds.reshape(-1), tree.child, tree.leaf_prim, tree.leaf_tri.reshape(-1),
+                  cat(sph_c) if sph_c else np.zeros((0, 3)), cat(sph_r) if sph_r else np.zeros(0),
+                  cat(sph_w2o) if sph_w2o else np.zeros((0, 3, 4)), np.zeros((0, 3)), np.zeros(0),
+                  tree.stack_size),
+            tree=tree, tri_inst=cat(tri_inst) if tri_inst else np.zeros(0, np.int32),
+            tri_local=cat(tri_local) if tri_local else np.zeros(0, np.int32),
+            sph_inst=np.array(sph_inst, np.int32), sph_prim=np.array(sph_prim, np.int32),
+        )
+
+    def _one_level(self, o, d):
+        """Rays and tree arguments for the one-level kernels of kernels/bvh.py, which trace coherent rays in
+        packets, or None when the scene needs the two-level kernels (a shape placed more than once).
+
+        A single instance (one mesh or sphere: the common case) is traced in its own tree, with the rays moved
+        into its object space by the two-level kernels' own arithmetic (t is unchanged); several instances of
+        distinct shapes through the world-space tree of _flat_tree."""
+        if len(self._instances) == 1:
+            p = self._pack()
+            w2o = p["w2o"][0]
+            if not np.array_equal(w2o, np.eye(4)[:3]):
+                oo, dd = np.empty_like(o), np.empty_like(d)
+                rays_to_object(o, d, w2o, oo, dd)
+                o, d = oo, dd
+            no_planes = (np.zeros((0, 3)), np.zeros(0))
+            return o, d, (*p["blas"], *no_planes, p["stack"])
+        flat = self._pack()["flat"] if self._instances else None
+        return None if flat is None else (o, d, flat["args"])
+
+    def _flat_ids(self, kind, prim, inst) -> None:
+        """Turn the flat tree's triangle and sphere ids (prim) into instances (inst) and their own primitive
+        ids, in place; with a single instance there is nothing to map."""
+        flat = self._packed["flat"] if len(self._instances) > 1 else None
+        if flat is None:
+            inst[:] = np.where(kind != 0, 0, INVALID_ID)
+            return
+        tri = kind == TRIANGLE
+        sph = kind == SPHERE
+        inst[:] = INVALID_ID
+        inst[tri] = flat["tri_inst"][prim[tri]]
+        inst[sph] = flat["sph_inst"][prim[sph]]
+        prim[tri] = flat["tri_local"][prim[tri]]
+        prim[sph] = flat["sph_prim"][prim[sph]]
 
     # ------------------------------------------------------------------------------------------------ rays
     def _rays(self, origins, directions, t_min, t_max):
@@ -325,7 +384,7 @@ class RaycastingScene:
         one = self._one_level(o, d) if n else None
         if one is not None:
             run_blocks(closest_hit_bvh, n, one[0], one[1], lo, hi, *one[2], image_width(lead), t, kind, prim, u, v)
-            inst[:] = np.where(kind != 0, 0, INVALID_ID)
+            self._flat_ids(kind, prim, inst)
         elif self._instances and n:
             closest_hit_instances(o, d, lo, hi, *self._args(), t, inst, kind, prim, u, v)
         else:
@@ -422,9 +481,12 @@ class RaycastingScene:
 
     @property
     def nbytes(self) -> int:
-        """Bytes held by the BVHs (after the first query or an explicit build())."""
+        """Bytes held by the BVHs (after the first query or an explicit build()): the per-shape trees, the
+        tree over instances and, when no shape is shared, the world-space tree with its id maps."""
         p = self._pack()
-        return sum(a.nbytes for a in (*p["top"], *p["blas"]))
+        flat = p["flat"]
+        extra = 0 if flat is None else sum(a.nbytes for a in (*flat["args"][:-1], flat["tri_inst"], flat["tri_local"]))
+        return sum(a.nbytes for a in (*p["top"], *p["blas"])) + extra
 
     def build(self) -> None:
         """Build now rather than on the first query (for timing)."""
