@@ -153,6 +153,28 @@ def test_axis_parallel_rays_through_box_faces():
     _assert_same(BVHAccelerator(cs).closest_hit(o, d), BruteForce(cs).closest_hit(o, d))
 
 
+def test_packets_of_axis_parallel_rays_on_box_faces():
+    """Packets (4 x 4 tiles) whose rays have zero direction components and origins exactly on the planes of
+    the tree's boxes: the packet's interval bounds must not cull what a single ray would hit."""
+    rng = np.random.default_rng(5)
+    grid = np.round(rng.uniform(0, 4, (300, 3, 3)) * 4) / 4  # vertices on a quarter grid: shared box planes
+    mesh = TriangleMesh(grid.reshape(-1, 3), np.arange(900).reshape(-1, 3))
+    cs = compile_scene(Scene(camera=None, group=Group([mesh])))
+    s = np.arange(16) / 4.0  # origins on the same quarter grid
+    x, y = np.meshgrid(s, s)
+    for axis in range(3):
+        o = np.zeros((16, 16, 3))
+        o[..., (axis + 1) % 3], o[..., (axis + 2) % 3] = x, y
+        o[..., axis] = -1.0
+        d = np.zeros((16, 16, 3))
+        d[..., axis] = 1.0
+        o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+        h, ref = BVHAccelerator(cs).closest_hit(o, d, width=16), BruteForce(cs).closest_hit(o, d)
+        assert ref.hit.mean() > 0.2
+        _assert_same(h, ref)
+        np.testing.assert_array_equal(BVHAccelerator(cs).any_hit(o, d, width=16), ref.hit)
+
+
 def test_same_results_on_one_and_two_threads():
     rng = np.random.default_rng(3)
     cs = compile_scene(_random_scene(rng, 2000, 20, 1))

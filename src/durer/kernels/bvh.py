@@ -572,16 +572,18 @@ def _planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min, best):
 
 # ------------------------------------------------------------------------------------------------- ray packets
 #
-# Coherent rays (a chunk of PACKET consecutive rays whose directions share their signs and the watertight test's
-# axis permutation, as camera and shadow rays do) are traversed together: each node visit tests one child box
-# against all the packet's rays in a loop over rays that LLVM vectorises (AVX2: 4 float64 rays an instruction),
-# and a leaf's triangles are tested against all its rays the same way. Every ray does exactly the arithmetic of
-# the one-ray path (the same slab test, the same watertight test with the same constants), so t, u, v agree to
-# the bit; only the visit order differs, which can change the primitive named on an exact tie in t.
+# Coherent rays (a chunk of PACKET rays whose directions share their signs and the watertight test's axis
+# permutation, as camera and shadow rays do; consecutive rays, or a 4 x 4 tile of an image) are traversed
+# together: a node visit tests each child box once for the whole packet, with interval bounds over the packet's
+# origins and reciprocal directions that no ray's own slab test can beat (so nothing is culled that the one-ray
+# path would enter), and a leaf's triangles are tested against all its rays in a loop that LLVM vectorises
+# (AVX2: 4 float64 rays an instruction). Every ray does exactly the arithmetic of the one-ray path's watertight
+# test with the same constants, so t, u, v agree to the bit; only the visit order differs, which can change the
+# primitive named on an exact tie in t.
 # Scratch rows of `rr` (float64, (_NROW, PACKET)):
 (_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
- _NEAR, _PRIM) = range(22)
-_NROW = 22
+ _PRIM) = range(21)
+_NROW = 21
 PACKET = 16
 
 
@@ -671,44 +673,9 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr):
 
 
 @nb.njit(**JIT, inline="always")
-def _packet_box(bounds, base, nrx, nry, nrz, rr, hit):
-    """hit[k] = whether packet ray k meets the box at flat offset `base` within [t_min, best], and its entry
-    distance in row _NEAR (inf for a miss); returns the count."""
-    bnx = np.float64(bounds[base + nrx])
-    bfx = np.float64(bounds[base + 12 - nrx])
-    bny = np.float64(bounds[base + nry])
-    bfy = np.float64(bounds[base + 20 - nry])
-    bnz = np.float64(bounds[base + nrz])
-    bfz = np.float64(bounds[base + 28 - nrz])
-    cnt = 0
-    for k in range(PACKET):
-        ox, oy, oz = rr[_OX, k], rr[_OY, k], rr[_OZ, k]
-        ix, iy, iz = rr[_IX, k], rr[_IY, k], rr[_IZ, k]
-        tn = rr[_TMIN, k]
-        tf = rr[_BEST, k]
-        a = (bnx - ox) * ix
-        b = (bfx - ox) * ix
-        tn = a if a > tn else tn
-        tf = b if b < tf else tf
-        a = (bny - oy) * iy
-        b = (bfy - oy) * iy
-        tn = a if a > tn else tn
-        tf = b if b < tf else tf
-        a = (bnz - oz) * iz
-        b = (bfz - oz) * iz
-        tn = a if a > tn else tn
-        tf = b if b < tf else tf
-        h = tn <= tf + abs(tf) * FAR_WIDEN
-        hit[k] = h
-        cnt += np.int32(h)
-        rr[_NEAR, k] = tn if h else np.inf
-    return cnt
-
-
-@nb.njit(**JIT, inline="always")
-def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, hit, any_mode):
-    """Test a leaf's items against the packet rays flagged in hit; records closer hits (any_mode: a hit sets
-    the ray's best to -inf, which retires it)."""
+def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, any_mode):
+    """Test a leaf's items against all the packet's rays, in a loop over rays that vectorises; records closer
+    hits (any_mode: a hit sets the ray's best to -inf, which retires it)."""
     v = -code - 1
     first = v >> 3
     for j in range(first, first + (v & 7)):
@@ -737,7 +704,7 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                 det = e0 + e1 + e2
                 t = sz * (e0 * az + e1 * bz + e2 * cz) / det
                 best = rr[_BEST, k]
-                ok = (hit[k] & (det != 0.0) & (rr[_TMIN, k] < t) & (t < best)
+                ok = ((det != 0.0) & (rr[_TMIN, k] < t) & (t < best)
                       & ~(((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0))))
                 if any_mode:
                     rr[_BEST, k] = -np.inf if ok else best
@@ -750,7 +717,7 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
         else:
             s = -p - 1
             for k in range(PACKET):
-                if hit[k]:
+                if rr[_BEST, k] > -np.inf:
                     best = rr[_BEST, k]
                     t = sphere_hit_in_object_space((rr[_OX, k], rr[_OY, k], rr[_OZ, k]),
                                                    (rr[_DX, k], rr[_DY, k], rr[_DZ, k]), sph_center[s],
@@ -766,11 +733,32 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
 
 @nb.njit(**JIT)
 def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                    nrx, nry, nrz, kx, ky, kz, rr, hits, stack_node, stack_t, key, order, any_mode):
-    """Traverse one tree with a coherent packet (see above). hits (4, PACKET) bool, key (4,) float64 and order
-    (4,) int64 are scratch. Children are ordered by the nearest entry distance among the packet's rays, which
-    the stack keeps: a node is skipped when it lies beyond every ray's closest hit so far. Leaves met in a node
-    are tested at once."""
+                    nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, any_mode):
+    """Traverse one tree with a coherent packet (see above). key (4,) float64 and order (4,) int64 are
+    scratch. A node's child boxes are tested against the packet as a whole (_packet_slab: bounds over its rays,
+    conservative to the bit), children are ordered by the packet's entry distance, which the stack keeps: a
+    node is skipped when it lies beyond every ray's closest hit so far. Leaves met in a node are tested at once,
+    against all the packet's rays (the triangle test is exact, so a ray outside the leaf's box just misses)."""
+    # the packet's extremes: origins, reciprocal directions (one sign per axis), t_min
+    oxl = oxh = rr[_OX, 0]
+    oyl = oyh = rr[_OY, 0]
+    ozl = ozh = rr[_OZ, 0]
+    ixl = ixh = rr[_IX, 0]
+    iyl = iyh = rr[_IY, 0]
+    izl = izh = rr[_IZ, 0]
+    tlo = rr[_TMIN, 0]
+    for k in range(1, PACKET):
+        oxl, oxh = min(oxl, rr[_OX, k]), max(oxh, rr[_OX, k])
+        oyl, oyh = min(oyl, rr[_OY, k]), max(oyh, rr[_OY, k])
+        ozl, ozh = min(ozl, rr[_OZ, k]), max(ozh, rr[_OZ, k])
+        ixl, ixh = min(ixl, rr[_IX, k]), max(ixh, rr[_IX, k])
+        iyl, iyh = min(iyl, rr[_IY, k]), max(iyh, rr[_IY, k])
+        izl, izh = min(izl, rr[_IZ, k]), max(izh, rr[_IZ, k])
+        tlo = min(tlo, rr[_TMIN, k])
+    # the origin extreme that minimises the near plane's distance and the one that maximises the far one's
+    onx, ofx = (oxh, oxl) if nrx == 0 else (oxl, oxh)
+    ony, ofy = (oyh, oyl) if nry == 4 else (oyl, oyh)
+    onz, ofz = (ozh, ozl) if nrz == 8 else (ozl, ozh)
     stack_node[0] = root
     stack_t[0] = -np.inf
     sp = 1
@@ -788,17 +776,22 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
             c = child[node, lane]
             if c == 0:
                 continue
-            if _packet_box(bounds, base + lane, nrx, nry, nrz, rr, hits[lane]) == 0:
+            b = base + lane
+            tn, tf = tlo, far
+            a, e = _packet_slab(bounds[b + nrx], bounds[b + 12 - nrx], onx, ofx, ixl, ixh)
+            tn, tf = max(tn, a), min(tf, e)
+            a, e = _packet_slab(bounds[b + nry], bounds[b + 20 - nry], ony, ofy, iyl, iyh)
+            tn, tf = max(tn, a), min(tf, e)
+            a, e = _packet_slab(bounds[b + nrz], bounds[b + 28 - nrz], onz, ofz, izl, izh)
+            tn, tf = max(tn, a), min(tf, e)
+            if not tn <= tf + abs(tf) * FAR_WIDEN:
                 continue
-            kk = np.inf  # a separate loop: a min reduction inside _packet_box's loop is not vectorised
-            for k in range(PACKET):
-                kk = min(kk, rr[_NEAR, k])
             j = n_in
-            while j > 0 and key[j - 1] > kk:   # insertion sort, nearest first
+            while j > 0 and key[j - 1] > tn:   # insertion sort, nearest first
                 key[j] = key[j - 1]
                 order[j] = order[j - 1]
                 j -= 1
-            key[j] = kk
+            key[j] = tn
             order[j] = lane
             n_in += 1
         # leaves now (nearest first), inner children onto the stack farthest first
@@ -806,8 +799,7 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
             lane = order[q]
             c = child[node, lane]
             if c < 0:
-                _packet_leaf(c, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, hits[lane],
-                             any_mode)
+                _packet_leaf(c, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, any_mode)
                 far = _packet_far(rr)
         for q in range(n_in - 1, -1, -1):
             c = child[node, order[q]]
@@ -815,6 +807,18 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
                 stack_node[sp] = c
                 stack_t[sp] = key[q]
                 sp += 1
+
+
+@nb.njit(**JIT, inline="always")
+def _packet_slab(near_plane, far_plane, o_near, o_far, i_lo, i_hi):
+    """Bounds on one slab's entry and exit distances over all rays of a packet: no ray enters before the first
+    nor leaves after the second. The rays share the sign of the reciprocal direction i (in [i_lo, i_hi]); the
+    distance (plane - o) * i is monotonic in o and bilinear, so its extremes sit at the extreme origin given
+    and at i_lo or i_hi by the sign of plane - o. Rounding is monotonic too, so each bound is also one on every
+    ray's own computed distance (the one-ray slab test's)."""
+    v = np.float64(near_plane) - o_near
+    w = np.float64(far_plane) - o_far
+    return v * (i_lo if v >= 0.0 else i_hi), w * (i_hi if w >= 0.0 else i_lo)
 
 
 @nb.njit(**JIT, inline="always")
@@ -843,7 +847,6 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
     stack_t = np.empty(stack_size)
     dist = np.empty(4)
     rr = np.empty((_NROW, PACKET))
-    hits = np.empty((4, PACKET), np.bool_)
     pprims = np.empty(PACKET, np.int32)
     key = np.empty(4)
     order = np.empty(4, np.int64)
@@ -859,7 +862,7 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                                                       rr[_BEST, k])
                     rr[_BEST, k] = best
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, hits, stack_node, stack_t, key, order, False)
+                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, False)
                 for k in range(PACKET):
                     i = idx[k]
                     pr = rr[_PRIM, k]  # triangle id, -(sphere + 1), or -inf: nothing in the tree was hit
@@ -903,7 +906,6 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
     stack_t = np.empty(stack_size)
     dist = np.empty(4)
     rr = np.empty((_NROW, PACKET))
-    hits = np.empty((4, PACKET), np.bool_)
     key = np.empty(4)
     order = np.empty(4, np.int64)
     idx = np.empty(PACKET, np.int64)
@@ -918,7 +920,7 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                     if pprim >= 0:
                         rr[_BEST, k] = -np.inf
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, hits, stack_node, stack_t, key, order, True)
+                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, True)
                 for k in range(PACKET):
                     out[idx[k]] = rr[_BEST, k] == -np.inf
                 continue
