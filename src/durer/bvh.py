@@ -16,6 +16,7 @@ from .compile import CompiledScene, sphere_bounds
 from .hits import Hits, _per_ray
 from .kernels.bvh import (
     MAX_LEAF,
+    TILE,
     any_hit_bvh,
     build_wide_bvh,
     closest_hit_bvh,
@@ -61,7 +62,7 @@ def build_tree(triangles: np.ndarray, sphere_lo: np.ndarray, sphere_hi: np.ndarr
 def _checked_width(width: int, n: int) -> int:
     """width if n rays form whole rows of 4 x 4 tiles that wide, else 0 (rays in their given order)."""
     width = int(width)
-    return width if width > 0 and width % 4 == 0 and n % (4 * width) == 0 else 0
+    return width if width > 0 and width % TILE == 0 and n % (TILE * width) == 0 else 0
 
 
 class BVHAccelerator:
