@@ -257,7 +257,8 @@ def build_bvh2(lo, hi, max_leaf, defer):
                     cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
         if sp + 2 > stack.shape[0]:
             grown = np.empty((2 * stack.shape[0], 3), np.int64)
-            grown[:sp] = stack[:sp]
+            for q in range(sp):  # element by element: an array assignment compiles ~5 s of error formatting
+                grown[q, 0], grown[q, 1], grown[q, 2] = stack[q, 0], stack[q, 1], stack[q, 2]
             stack = grown
         stack[sp, 0], stack[sp, 1], stack[sp, 2] = r, mid, end
         stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = l, first, mid
