@@ -179,18 +179,20 @@ def test_same_results_on_one_and_two_threads():
     rng = np.random.default_rng(3)
     cs = compile_scene(_random_scene(rng, 2000, 20, 1))
     bvh = BVHAccelerator(cs)
-    o, d = _random_rays(rng, 20_000)
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        h1, a1 = bvh.closest_hit(o, d), bvh.any_hit(o, d)
-        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
-        h2, a2 = bvh.closest_hit(o, d), bvh.any_hit(o, d)
-    finally:
-        numba.set_num_threads(before)
-    for name in ("t", "kind", "prim", "u", "v"):
-        np.testing.assert_array_equal(getattr(h1, name), getattr(h2, name))
-    np.testing.assert_array_equal(a1, a2)
+    for o, d, width in (_random_rays(rng, 20_000) + (0,),          # one ray at a time
+                        _pinhole_rays(rng, 128, False) + (128,)):  # packets, 4 x 4 tiles
+        before = numba.get_num_threads()
+        try:
+            numba.set_num_threads(1)
+            h1, a1 = bvh.closest_hit(o, d, width=width), bvh.any_hit(o, d, width=width)
+            numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+            h2, a2 = bvh.closest_hit(o, d, width=width), bvh.any_hit(o, d, width=width)
+        finally:
+            numba.set_num_threads(before)
+        assert (h1.kind == 1).mean() > 0.05  # triangles are hit, not only the plane
+        for name in ("t", "kind", "prim", "u", "v"):
+            np.testing.assert_array_equal(getattr(h1, name), getattr(h2, name))
+        np.testing.assert_array_equal(a1, a2)
 
 
 @pytest.fixture(scope="module")
