@@ -69,3 +69,20 @@ def test_watertight_million_rays_from_inside_closed_icosphere():
     assert hit.all(), f"{(~hit).sum()} rays escaped"
     t = scene.cast_rays(origins[:100_000], targets[:100_000] - origins[:100_000])["t_hit"]
     assert np.isfinite(t).all()
+
+
+def test_watertight_packets_aimed_along_edges_and_at_vertices():
+    """The same for coherent rays, which take the packet traversal: 16 rays from the centre to 16 points along
+    one edge (its two vertices included) make one packet; every ray of every packet hits."""
+    mesh = trimesh.creation.icosphere(subdivisions=4)
+    scene = RaycastingScene()
+    scene.add_triangles(mesh.vertices, mesh.faces)
+    edges = mesh.edges_unique
+    s = np.linspace(0.0, 1.0, 16)[None, :, None]
+    targets = (1 - s) * mesh.vertices[edges[:, 0]][:, None] + s * mesh.vertices[edges[:, 1]][:, None]
+    directions = targets.reshape(-1, 3)
+    origins = np.zeros_like(directions)
+    assert scene.test_occlusions(origins, directions).all()
+    t = scene.cast_rays(origins, directions)["t_hit"]
+    assert np.isfinite(t).all()
+    np.testing.assert_allclose(t, 1.0, atol=0.02)  # the targets lie on the mesh, at t = 1
