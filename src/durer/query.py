@@ -285,7 +285,7 @@ class RaycastingScene:
                   cat(sph_c) if sph_c else np.zeros((0, 3)), cat(sph_r) if sph_r else np.zeros(0),
                   cat(sph_w2o) if sph_w2o else np.zeros((0, 3, 4)), np.zeros((0, 3)), np.zeros(0),
                   tree.stack_size),
-            tree=tree, tri_inst=cat(tri_inst) if tri_inst else np.zeros(0, np.int32),
+            tri_inst=cat(tri_inst) if tri_inst else np.zeros(0, np.int32),
             tri_local=cat(tri_local) if tri_local else np.zeros(0, np.int32),
             sph_inst=np.array(sph_inst, np.int32), sph_prim=np.array(sph_prim, np.int32),
         )
@@ -328,9 +328,10 @@ class RaycastingScene:
     def _rays(self, origins, directions, t_min, t_max):
         """Validate and flatten: (origins (N,3), directions (N,3), t_min (N,), t_max (N,), leading shape)."""
         if directions is None:
-            rays = _numeric_array("rays", origins, (6,))
+            rays = np.asarray(origins)
             if rays.ndim < 1 or rays.shape[-1] != 6:
                 raise ValueError(f"rays must have shape (..., 6) when no directions are given, got {rays.shape}")
+            rays = _numeric_array("rays", rays, (6,))
             lead = rays.shape[:-1]
             rays = rays.reshape(-1, 6)
             src_o, src_d, names = rays[:, :3], rays[:, 3:], ("rays", "rays")
