@@ -24,7 +24,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .intersect import ray_shear, sphere_hit_in_object_space, watertight_triangle
+from .intersect import ray_shear, shear_axes, sphere_hit_in_object_space, watertight_triangle
 
 TRIANGLE, SPHERE = 1, 2
 MAX_LEAF = 4          # items per leaf (the build may go up to 7 when all centroids coincide)
@@ -590,24 +590,6 @@ PACKET = TILE * TILE
 
 
 @nb.njit(**JIT, inline="always")
-def _shear_axes(dx, dy, dz):
-    """The axis permutation of intersect.ray_shear (same rules, without its divisions)."""
-    ax, ay, az = abs(dx), abs(dy), abs(dz)
-    if ax >= ay and ax >= az:
-        kz = 0
-    elif ay >= az:
-        kz = 1
-    else:
-        kz = 2
-    kx = (kz + 1) % 3
-    ky = (kx + 1) % 3
-    dkz = dx if kz == 0 else (dy if kz == 1 else dz)
-    if dkz < 0.0:
-        kx, ky = ky, kx
-    return kx, ky, kz
-
-
-@nb.njit(**JIT, inline="always")
 def chunk_rays(c, n, width, idx):
     """The rays of chunk c into idx; returns how many. width = 0: rays c * PACKET onwards, in order. width > 0
     (the rays are an image `width` wide, both sides multiples of TILE): the TILE x TILE tile c, row by row,
@@ -633,13 +615,13 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr):
     kx, ky, kz): coherent when all n rays share direction signs and axis permutation. Only then are the
     per-ray constants computed (in a loop over rays that vectorises, with ray_setup's exact operations)."""
     i0 = idx[0]
-    kx0, ky0, kz0 = _shear_axes(directions[i0, 0], directions[i0, 1], directions[i0, 2])
+    kx0, ky0, kz0 = shear_axes(directions[i0, 0], directions[i0, 1], directions[i0, 2])
     s0 = (directions[i0, 0] < 0.0) + 2 * (directions[i0, 1] < 0.0) + 4 * (directions[i0, 2] < 0.0)
     coherent = True
     for k in range(PACKET):
         i = idx[k] if k < n else i0
         dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
-        kx, ky, kz = _shear_axes(dx, dy, dz)
+        kx, ky, kz = shear_axes(dx, dy, dz)
         sgn = (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0)
         if sgn != s0 or kx != kx0 or ky != ky0 or kz != kz0:
             coherent = False

@@ -55,10 +55,9 @@ def intersect_plane(ox, oy, oz, dx, dy, dz, nx, ny, nz, offset, t_min, t_max):
 
 
 @nb.njit(cache=True, inline="always", error_model="numpy")
-def ray_shear(dx, dy, dz):
-    """Per-ray constants of the watertight test: the axis permutation (kx, ky, kz) that makes z the direction's
-    largest component (x, y swapped when it is negative, keeping the winding), and the shear sx, sy, sz that maps
-    the direction onto (0, 0, 1)."""
+def shear_axes(dx, dy, dz):
+    """The watertight test's axis permutation (kx, ky, kz): z is the direction's largest component, and x, y
+    are swapped when that component is negative, which keeps the triangles' winding."""
     ax, ay, az = abs(dx), abs(dy), abs(dz)
     if ax >= ay and ax >= az:
         kz = 0
@@ -68,10 +67,19 @@ def ray_shear(dx, dy, dz):
         kz = 2
     kx = (kz + 1) % 3
     ky = (kx + 1) % 3
-    d = (dx, dy, dz)
-    dkz = d[kz]
+    dkz = dx if kz == 0 else (dy if kz == 1 else dz)
     if dkz < 0.0:
         kx, ky = ky, kx
+    return kx, ky, kz
+
+
+@nb.njit(cache=True, inline="always", error_model="numpy")
+def ray_shear(dx, dy, dz):
+    """Per-ray constants of the watertight test: the axis permutation of shear_axes and the shear sx, sy, sz
+    that maps the direction onto (0, 0, 1)."""
+    kx, ky, kz = shear_axes(dx, dy, dz)
+    d = (dx, dy, dz)
+    dkz = d[kz]
     return kx, ky, kz, d[kx] / dkz, d[ky] / dkz, 1.0 / dkz
 
 
