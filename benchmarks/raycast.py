@@ -27,10 +27,10 @@ import numba
 import numpy as np
 import trimesh
 
-from durer.bvh import BVHAccelerator
-from durer.compile import compile_scene
-from durer.scene import Group, Scene
-from durer.shapes import TriangleMesh
+from durer.accel.bvh import BVHAccelerator
+from durer.accel.compile import compile_scene
+from durer.scene.graph import Group, Scene
+from durer.scene.shapes import TriangleMesh
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
@@ -264,8 +264,8 @@ def scaling(meshes: dict[str, trimesh.Trimesh], res: int, repeat: int) -> None:
 def startup(scene_file: Path) -> None:
     """First-call compile seconds (empty Numba cache) and warm/cold `durer raycast` wall time."""
     code = ("import time, numpy as np, trimesh; t = time.perf_counter(); "
-            "from durer.bvh import BVHAccelerator; from durer.compile import compile_scene; "
-            "from durer.scene import Group, Scene; from durer.shapes import TriangleMesh; "
+            "from durer.accel.bvh import BVHAccelerator; from durer.accel.compile import compile_scene; "
+            "from durer.scene.graph import Group, Scene; from durer.scene.shapes import TriangleMesh; "
             "m = trimesh.creation.icosphere(2); "
             "a = BVHAccelerator(compile_scene(Scene(None, Group([TriangleMesh(m.vertices, m.faces)])))); "
             "a.closest_hit(np.zeros((4, 3)), np.ones((4, 3))); a.any_hit(np.zeros((4, 3)), np.ones((4, 3))); "

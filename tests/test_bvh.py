@@ -10,11 +10,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from durer.bvh import BVHAccelerator
-from durer.compile import compile_scene
-from durer.hits import BruteForce
-from durer.scene import Group, Scene, Transform
-from durer.shapes import Plane, Sphere, Triangle, TriangleMesh
+from durer.accel.brute import BruteForce
+from durer.accel.bvh import BVHAccelerator
+from durer.accel.compile import compile_scene
+from durer.scene.graph import Group, Scene, Transform
+from durer.scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 BUNNY = SHARED / "meshes" / "bun_zipper.ply"
@@ -125,7 +125,7 @@ def test_tile_order_changes_nothing_but_speed(seed, n_tri, n_sph, ortho):
 
 
 def test_width_that_does_not_tile_the_rays_is_ignored():
-    from durer.kernels.bvh import image_width
+    from durer.kernels.bvh_trace import image_width
 
     assert image_width((8, 12)) == 12 and image_width((2, 8, 12)) == 12
     assert image_width((6, 12)) == 0 and image_width((8, 10)) == 0 and image_width((64,)) == 0
@@ -267,7 +267,7 @@ def _small_mesh(rng) -> TriangleMesh:
 def test_a_mesh_placed_twice_is_stored_once_and_hits_as_flattened():
     """Issue 3, item 1: the renderer's BVH keeps a mesh used more than once as one stored mesh + instances
     (one mirrored here) and answers with the same Hits (virtual triangle ids) as the flattened scene."""
-    from durer.hits import geometric_normals, hit_materials
+    from durer.accel.hits import geometric_normals, hit_materials
 
     rng = np.random.default_rng(3)
     mesh = _small_mesh(rng)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from durer.cameras import (
+from durer.scene.cameras import (
     FisheyeCamera,
     OrthographicCamera,
     PanoramaCamera,

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from durer import Group, Plane, Scene, Sphere, Transform, Triangle, TriangleMesh
-from durer import transforms as tf
-from durer.cameras import OrthographicCamera
-from durer.compile import compile_scene, sphere_bounds
+from durer.accel.compile import compile_scene, sphere_bounds
+from durer.scene import transforms as tf
+from durer.scene.cameras import OrthographicCamera
 
 CAM = OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=1)
 

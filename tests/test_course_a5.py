@@ -95,8 +95,8 @@ GUI_CAMERA_5_03 = (12.32, -16.61)
 
 def gui_camera(yaw_deg: float, pitch_deg: float):
     """scene5_03's camera turned as the course's GUI turns it."""
-    from durer.cameras import OrthographicCamera
-    from durer.transforms import rotate
+    from durer.scene.cameras import OrthographicCamera
+    from durer.scene.transforms import rotate
 
     up = np.array([0.0, 1.0, 0.0])
     center, direction = np.array([0.0, 3.0, 10.0]), np.array([0.0, 0.0, -1.0])

@@ -13,8 +13,8 @@ import pytest
 from conftest import COURSE, needs_course
 
 from durer import OrthographicCamera, PhongMaterial, Scene, Triangle, render
-from durer.compile import COURSE_EDGE_TOLERANCE, compile_scene, widen_triangles, with_course_edges
-from durer.scene import Group
+from durer.accel.compile import COURSE_EDGE_TOLERANCE, compile_scene, widen_triangles, with_course_edges
+from durer.scene.graph import Group
 
 
 def barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 from conftest import COURSE, needs_course
 
-from durer import film
 from durer.options import RenderOptions
+from durer.rendering import film
 
 
 def opts(**kw) -> RenderOptions:
@@ -162,7 +162,7 @@ def test_box_average_of_the_pixels_samples():
 
 def test_render_is_reproducible_across_thread_counts():
     from durer import DirectionalLight, OrthographicCamera, PhongMaterial, Scene, Sphere, render
-    from durer.scene import Group
+    from durer.scene.graph import Group
 
     scene = Scene(camera=OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=3),
                   lights=[DirectionalLight(direction=(0, -1, -1), color=(0.8, 0.8, 0.8))],

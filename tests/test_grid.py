@@ -9,15 +9,16 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from durer import Group, Scene, Sphere, Transform, Triangle
-from durer import transforms as tf
-from durer.cameras import OrthographicCamera
-from durer.compile import CompiledScene, compile_scene
-from durer.grid import COUNT_COLORS, GridAccelerator, spheres_under_transform
-from durer.hits import BruteForce
-from durer.lights import DirectionalLight
+from durer.accel.brute import BruteForce
+from durer.accel.compile import CompiledScene, compile_scene, spheres_under_transform
+from durer.accel.grid import GridAccelerator
+from durer.accel.stats import CountingAccelerator, RayStats
 from durer.options import RenderOptions
-from durer.render import render
-from durer.stats import CountingAccelerator, RayStats
+from durer.rendering.grid_view import COUNT_COLORS
+from durer.rendering.renderer import render
+from durer.scene import transforms as tf
+from durer.scene.cameras import OrthographicCamera
+from durer.scene.lights import DirectionalLight
 
 CAM = OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=1)
 

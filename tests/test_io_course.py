@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from durer import OrthographicCamera, PerspectiveCamera, PhongMaterial, SceneError, Sphere, Transform, load
-from durer.textures import Marble
+from durer.scene.textures import Marble
 
 GOOD = """\
 PerspectiveCamera {

@@ -9,10 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from durer import Group, Plane, Scene, Sphere, Transform, Triangle
-from durer import transforms as tf
-from durer.cameras import OrthographicCamera
-from durer.compile import PLANE, SPHERE, TRIANGLE, compile_scene
-from durer.hits import BruteForce, geometric_normals
+from durer.accel.brute import BruteForce
+from durer.accel.compile import PLANE, SPHERE, TRIANGLE, compile_scene
+from durer.accel.hits import geometric_normals
+from durer.scene import transforms as tf
+from durer.scene.cameras import OrthographicCamera
 
 CAM = OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=1)
 

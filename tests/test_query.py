@@ -191,7 +191,7 @@ def test_distinct_shapes_share_one_world_space_tree(sphere_mesh):
         s.add_sphere([0.5, 0.0, 0.0], 0.7, transform=mats[2])
     flat.add_triangles(box.vertices, box.faces, transform=mats[3])
     nested.add_instance(1, mats[3])  # the box again: shared, so two-level
-    assert flat._pack()["flat"] is not None and nested._pack()["flat"] is None
+    assert flat._tree().world is not None and nested._tree().world is None
     rays = RaycastingScene.create_rays_pinhole(60, [0, 0, 0], [1.0, 2.0, 10.0], [0, 1, 0], 96, 64)
     a, b = flat.cast_rays(rays), nested.cast_rays(rays)
     hit = np.isfinite(a["t_hit"])

@@ -119,7 +119,7 @@ class _FakeTerminal:
 def test_progress_bar_only_on_a_terminal_and_never_when_quiet(monkeypatch, tty, quiet, shown):
     import importlib
 
-    render_module = importlib.import_module("durer.render")  # `durer.render` is the function
+    render_module = importlib.import_module("durer.rendering.renderer")
     fake = _FakeTerminal(tty)
     monkeypatch.setattr(render_module.sys, "stderr", fake)
     bar = render_module._progress(100, quiet)

@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from durer.lights import DirectionalLight, PointLight
-from durer.shading import light_directions, phong
+from durer.rendering.shading import light_directions, phong
+from durer.scene.lights import DirectionalLight, PointLight
 
 
 def unit(v) -> np.ndarray:

@@ -8,11 +8,11 @@ import pytest
 from conftest import needs_course
 
 from durer.kernels.noise import turbulence
-from durer.materials import PhongMaterial
 from durer.options import RenderOptions
-from durer.shading import MaterialTable
-from durer.textures import Checkerboard, Marble, Noise, Wood
-from durer.texturing import WOOD_NOISE_Y_SCALE, WOOD_Y_TWIST, blend_weight, leaf_weights, texture_points
+from durer.rendering.shading import MaterialTable
+from durer.rendering.texturing import WOOD_NOISE_Y_SCALE, WOOD_Y_TWIST, blend_weight, leaf_weights, texture_points
+from durer.scene.materials import PhongMaterial
+from durer.scene.textures import Checkerboard, Marble, Noise, Wood
 
 
 def scale_translate(s: float, t=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -141,9 +141,9 @@ def test_textured_render_is_the_blend_of_the_materials_renders():
     """Shading blends the two materials' shaded colours: a Noise sphere equals the weighted sum of the two
     plain renders, pixel by pixel (the weights computed independently here)."""
     from durer import DirectionalLight, OrthographicCamera, Scene, Sphere, render
-    from durer.cameras import pixel_centers
-    from durer.render import make_context
-    from durer.scene import Group
+    from durer.rendering.renderer import make_context
+    from durer.scene.cameras import pixel_centers
+    from durer.scene.graph import Group
 
     def scene(index):
         return Scene(camera=OrthographicCamera(center=(0, 0, 10), direction=(0, 0, -1), up=(0, 1, 0), size=2.5),

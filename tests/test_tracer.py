@@ -23,8 +23,8 @@ from durer import (
     Triangle,
 )
 from durer.options import RenderOptions
-from durer.render import make_context
-from durer.tracer import RAY_EPSILON, mirror_direction, transmitted_direction, whitted
+from durer.rendering.renderer import make_context
+from durer.rendering.whitted import RAY_EPSILON, mirror_direction, transmitted_direction, whitted
 
 
 def unit(v) -> np.ndarray:
@@ -312,8 +312,8 @@ def test_refraction_through_a_glass_sphere_bends_like_a_lens():
 # --- the wavefront against a per-ray recursive traceRay ------------------------------------------------------
 def trace_ray(ctx, o, d, t_min, bounces, weight):
     """The course's recursive traceRay for one ray, written plainly (the wavefront must agree with it)."""
-    from durer.integrators import shade_local, surface
-    from durer.tracer import shadow_visibility
+    from durer.rendering.raycaster import shade_local, surface
+    from durer.rendering.whitted import shadow_visibility
 
     opts, table = ctx.options, ctx.materials
     hits = ctx.accel.closest_hit(o[None], d[None], t_min)
@@ -356,7 +356,7 @@ def test_wavefront_matches_recursive_trace(bounces, weight):
     w = h = 9
     r = durer.render(scene, w, h, shadows=True, shade_back=True, bounces=bounces, weight=weight)
     ctx = make_context(scene, RenderOptions(shadows=True, shade_back=True, bounces=bounces, weight=weight))
-    from durer import film
+    from durer.rendering import film
     points, _ = film.sample_points(w, h, ctx.options)
     origins, directions, _ = scene.camera.generate_rays(points, w, h)
     expected = np.array([trace_ray(ctx, o, d, scene.camera.t_min, 0, 1.0) for o, d in zip(origins, directions, strict=True)])

@@ -1,7 +1,7 @@
 """Run the MIT 6.837 course's own command lines through `durer raycast` and compare every output image with
 the course's reference image.
 
-    python tools/course_report.py [--assignments 1 2 ...] [--markdown]
+    python tools/course_report.py [--assignments 1 2 ...] [--markdown] [--keep DIR]
 
 For each image it prints the fraction of pixels whose largest channel difference is at most 2/255, the mean
 absolute difference and the largest difference, as issues 2 and 4 ask. Needs ../shared (the course scenes).
@@ -110,12 +110,16 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--assignments", type=int, nargs="*", default=None)
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    ap.add_argument("--keep", metavar="DIR", help="write the images into DIR (kept) instead of a temporary folder, "
+                    "for example to compare two versions of durer byte for byte")
     a = ap.parse_args()
     if not COURSE.is_dir():
         print(f"course scenes not found at {COURSE}", file=sys.stderr)
         return 2
     rows = []
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = a.keep or scratch
+        os.makedirs(tmp, exist_ok=True)
         for line in course_lines(a.assignments):
             code, err, written, secs = run_line(line, tmp)
             for name, path in written.items():

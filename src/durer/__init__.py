@@ -9,14 +9,15 @@ from __future__ import annotations
 
 import os
 
-from .cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, PerspectiveCamera
 from .errors import DurerError, SceneError, UsageError
-from .lights import DirectionalLight, PointLight
-from .materials import Material, PhongMaterial
-from .render import RenderResult, render
-from .scene import Group, Scene, Transform
-from .shapes import Plane, Sphere, Triangle, TriangleMesh
-from .textures import Checkerboard, Marble, Noise, Wood
+from .rendering.renderer import RenderResult, render
+from .scene import transforms
+from .scene.cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, PerspectiveCamera
+from .scene.graph import Group, Scene, Transform
+from .scene.lights import DirectionalLight, PointLight
+from .scene.materials import Material, PhongMaterial
+from .scene.shapes import Plane, Sphere, Triangle, TriangleMesh
+from .scene.textures import Checkerboard, Marble, Noise, Wood
 
 __version__ = "0.1.0"
 
@@ -30,17 +31,22 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'durer' has no attribute {name!r}")
 
 
-def load(path: str | os.PathLike, mesh_path: list[str] | None = None) -> Scene:
-    """Read a scene file (the MIT 6.837 format); mesh files are looked up next to it, in the working
-    directory, then in `mesh_path` and $DURER_MESH_PATH. Raises SceneError with file and line on a mistake."""
-    from .io.course import load_course_scene
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
 
-    return load_course_scene(path, mesh_path)
+
+def load(path: str | os.PathLike, mesh_path: list[str] | None = None) -> Scene:
+    """Read a scene file, by its extension (io/loaders.py; the MIT 6.837 format by default); mesh files are looked
+    up next to it, in the working directory, then in `mesh_path` and $DURER_MESH_PATH. Raises SceneError with
+    file and line on a mistake."""
+    from .io.loaders import load_scene
+
+    return load_scene(path, mesh_path)
 
 
 __all__ = [
     "Checkerboard", "DirectionalLight", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
     "OrthographicCamera", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight",
     "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "Transform", "Triangle", "TriangleMesh",
-    "UsageError", "Wood", "load", "render",
+    "UsageError", "Wood", "load", "render", "transforms",
 ]

@@ -162,17 +162,17 @@ def run_course(argv: list[str]) -> int:
         print(f"durer: {', '.join(ignored)} (the course's OpenGL preview) ignored: rendering to files only",
               file=sys.stderr)
     from . import load
-    from .render import render
+    from .rendering.renderer import render
 
     scene = load(a.input)
     width, height = a.size
     if samples_dbg or filter_dbg:
-        from . import film
+        from .rendering.film_images import write_filter_image, write_samples_image
 
         if samples_dbg:
-            film.write_samples_image(samples_dbg[0], scene, width, height, opts, samples_dbg[1])
+            write_samples_image(samples_dbg[0], scene, width, height, opts, samples_dbg[1])
         if filter_dbg:
-            film.write_filter_image(filter_dbg[0], width, height, opts, filter_dbg[1])
+            write_filter_image(filter_dbg[0], width, height, opts, filter_dbg[1])
         if not (a.output or depth or a.normals):
             return 0
     opts.validate()
@@ -228,7 +228,7 @@ def render_parser() -> argparse.ArgumentParser:
 
 
 def run_render(argv: list[str]) -> int:
-    from .render import parse_filter, render
+    from .rendering.renderer import parse_filter, render
 
     a = render_parser().parse_args(argv)
     try:

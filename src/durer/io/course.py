@@ -14,14 +14,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .. import transforms as tf
-from ..cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, PerspectiveCamera
 from ..errors import SceneError
-from ..lights import DirectionalLight, PointLight
-from ..materials import PhongMaterial
-from ..scene import Group, Scene, Transform
-from ..shapes import Plane, Sphere, Triangle, TriangleMesh
-from ..textures import Checkerboard, Marble, Noise, Wood
+from ..scene import transforms as tf
+from ..scene.cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, PerspectiveCamera
+from ..scene.graph import Group, Scene, Transform
+from ..scene.lights import DirectionalLight, PointLight
+from ..scene.materials import PhongMaterial
+from ..scene.shapes import Plane, Sphere, Triangle, TriangleMesh
+from ..scene.textures import Checkerboard, Marble, Noise, Wood
 from .obj import read_obj
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")

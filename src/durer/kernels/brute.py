@@ -9,8 +9,7 @@ import numba as nb
 import numpy as np
 
 from .intersect import intersect_plane, intersect_triangle, sphere_hit_in_object_space
-
-TRIANGLE, SPHERE, PLANE = 1, 2, 3
+from .layout import PLANE, SPHERE, TRIANGLE
 
 
 @nb.njit(cache=True, parallel=True)

@@ -3,7 +3,7 @@
 An instance is (root node of a bottom-level tree in the shared arrays, 3x4 world-to-object matrix). At an
 instance leaf the ray is moved into object space with its direction left unnormalised, so the bottom-level
 tree's t is the world t and one mesh can appear many times while being stored once. The top-level tree uses
-the layout of kernels/bvh.py; its leaf slots name instances.
+the layout of kernels/layout.py; its leaf slots name instances.
 """
 
 from __future__ import annotations
@@ -11,18 +11,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh import (
-    JIT,
-    RAY_CHUNK,
-    SPHERE,
-    TRIANGLE,
-    blas_all,
-    blas_any,
-    blas_closest,
-    node_dists,
-    push_nearest_first,
-    ray_setup,
-)
+from .bvh_single import blas_all, blas_any, blas_closest, node_dists, push_nearest_first, ray_setup
+from .layout import JIT, RAY_CHUNK, SPHERE, TRIANGLE, leaf_range
 
 
 @nb.njit(**JIT, inline="always")
@@ -113,9 +103,8 @@ def closest_hit_instances(origins, directions, t_min, t_max,
                         node = nxt
                         continue
                 else:
-                    v = -node - 1
-                    first = v >> 3
-                    for j in range(first, first + (v & 7)):
+                    first, end = leaf_range(node)
+                    for j in range(first, end):
                         k = top_leaf[j]
                         px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                         t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
@@ -168,9 +157,8 @@ def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, 
                             top_node[sp] = top_child[node, lane]
                             sp += 1
                     continue
-                v = -node - 1
-                first = v >> 3
-                for j in range(first, first + (v & 7)):
+                first, end = leaf_range(node)
+                for j in range(first, end):
                     k = top_leaf[j]
                     px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                     if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
@@ -216,9 +204,8 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
                             top_node[sp] = top_child[node, lane]
                             sp += 1
                     continue
-                v = -node - 1
-                first = v >> 3
-                for j in range(first, first + (v & 7)):
+                first, end = leaf_range(node)
+                for j in range(first, end):
                     k = top_leaf[j]
                     px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                     before = total

@@ -1,18 +1,20 @@
-"""Hit records for a batch of rays, and the accelerator interface every ray query goes through."""
+"""Hit records for a batch of rays, the Accelerator protocol every accelerator meets, and what a hit means for
+the surface (normals, materials)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
-from .compile import PLANE, SPHERE, TRIANGLE, CompiledScene
-from .kernels.brute import any_hit_all, closest_hit_all
+from ..kernels.layout import MISS, PLANE, SPHERE, TRIANGLE
+from .compile import CompiledScene
 
 
 @dataclass
 class Hits:
-    """The closest hit of each ray: t (inf on a miss), kind (0 miss, 1 triangle, 2 sphere, 3 plane),
+    """The closest hit of each ray: t (inf on a miss), kind (MISS, TRIANGLE, SPHERE or PLANE of kernels/layout.py),
     prim (index within its kind, -1 on a miss) and barycentrics u, v (triangles only)."""
 
     t: np.ndarray
@@ -23,46 +25,39 @@ class Hits:
 
     @property
     def hit(self) -> np.ndarray:
-        return self.kind != 0
+        return self.kind != MISS
 
     @classmethod
     def empty(cls, n: int) -> Hits:
         return cls(np.empty(n), np.empty(n, np.int8), np.empty(n, np.int32), np.empty(n), np.empty(n))
 
 
-def _per_ray(value, n: int) -> np.ndarray:
+def per_ray(value, n: int) -> np.ndarray:
+    """A scalar or (n,) interval bound as a contiguous float64 (n,) array."""
     a = np.asarray(value, dtype=np.float64)
     return np.ascontiguousarray(np.broadcast_to(a, (n,)))
 
 
-class BruteForce:
-    """Tests every ray against every primitive; the reference that accelerators must agree with."""
+class Accelerator(Protocol):
+    """What integrators ask of a scene's geometry: BruteForce, BVHAccelerator and GridAccelerator answer it.
 
-    name = "brute"
+    Rays are origins and directions (N, 3); t_min and t_max are scalars or (N,) arrays, and a hit counts when
+    t_min < t < t_max. `width` > 0 says the rays are an image that wide, row by row (an accelerator may use it to
+    trace 4 x 4 tiles together, or ignore it). Every accelerator returns the same t to the bit for the same ray.
+    """
 
-    def __init__(self, cs: CompiledScene):
-        self.cs = cs
+    name: str
+    cs: CompiledScene
 
-    def _geometry(self):
-        cs = self.cs.flat  # instances flattened (same triangle ids)
-        return (cs.triangles, cs.sphere_center, cs.sphere_radius, cs.sphere_world_to_object,
-                cs.plane_normal, cs.plane_offset)
+    def closest_hit(self, origins: np.ndarray, directions: np.ndarray, t_min=0.0, t_max=np.inf,
+                    width: int = 0) -> Hits:
+        """The closest hit of each ray."""
+        ...
 
-    def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> Hits:
-        n = len(origins)
-        h = Hits.empty(n)
-        closest_hit_all(np.ascontiguousarray(origins, dtype=np.float64),
-                        np.ascontiguousarray(directions, dtype=np.float64),
-                        _per_ray(t_min, n), _per_ray(t_max, n), *self._geometry(), h.t, h.kind, h.prim, h.u, h.v)
-        return h
-
-    def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> np.ndarray:
-        n = len(origins)
-        out = np.empty(n, dtype=np.bool_)
-        any_hit_all(np.ascontiguousarray(origins, dtype=np.float64),
-                    np.ascontiguousarray(directions, dtype=np.float64),
-                    _per_ray(t_min, n), _per_ray(t_max, n), *self._geometry(), out)
-        return out
+    def any_hit(self, origins: np.ndarray, directions: np.ndarray, t_min=0.0, t_max=np.inf,
+                width: int = 0) -> np.ndarray:
+        """(N,) bool: does the ray hit anything in (t_min, t_max)? May stop at the first hit found."""
+        ...
 
 
 def geometric_normals(cs: CompiledScene, hits: Hits, points: np.ndarray) -> np.ndarray:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import DurerError
+from ..errors import DurerError
 
 
 def identity() -> np.ndarray:

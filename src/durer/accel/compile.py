@@ -7,7 +7,7 @@ the direction left unnormalised, which keeps t in world units too (the course's 
 
 A mesh placed more than once (the same TriangleMesh object, or the same file with identical arrays, as the
 course parser makes for each `TriangleMesh {}`) is stored once, in object space, with one (matrix, material)
-instance per placement (issue 3, item 1); bvh.BVHAccelerator traces it two-level (kernels/instances.py). Triangle
+instance per placement; accel/bvh.BVHAccelerator traces it two-level (kernels/instances.py). Triangle
 ids stay one flat numbering (CompiledScene.triangle / triangle_materials); brute force and the grid use `flat`.
 """
 
@@ -18,11 +18,9 @@ from functools import cached_property
 
 import numpy as np
 
-from .scene import Group, Scene, Transform
-from .shapes import Plane, Sphere, Triangle, TriangleMesh
-
-# Hit kinds, as stored in Hits.kind
-MISS, TRIANGLE, SPHERE, PLANE = 0, 1, 2, 3
+from ..kernels.layout import MISS, PLANE, SPHERE, TRIANGLE  # noqa: F401  (re-exported: the hit kinds)
+from ..scene.graph import Group, Scene, Transform
+from ..scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 
 
 @dataclass
@@ -277,3 +275,20 @@ def compile_scene(scene: Scene) -> CompiledScene:
         instance_matrix=np.array([i[1] for i in instances], dtype=np.float64).reshape(-1, 4, 4),
         instance_material=np.array([i[2] for i in instances], dtype=np.int32),
     )
+
+
+def spheres_under_transform(scene: Scene) -> np.ndarray:
+    """(S,) bool, in CompiledScene order: is sphere k below some Transform node of the scene tree?"""
+    flags: list[bool] = []
+
+    def visit(obj, transformed: bool) -> None:
+        if isinstance(obj, Group):
+            for child in obj.objects:
+                visit(child, transformed)
+        elif isinstance(obj, Transform):
+            visit(obj.object, True)
+        elif isinstance(obj, Sphere):
+            flags.append(transformed)
+
+    visit(scene.group, False)
+    return np.array(flags, dtype=bool)

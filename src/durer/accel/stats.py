@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .hits import Accelerator
+
 
 @dataclass
 class RayStats:
@@ -82,7 +84,7 @@ class CountingAccelerator:
     the tests are unknown and reported as such.
     """
 
-    def __init__(self, accel, stats: RayStats, tests_per_ray: int | None):
+    def __init__(self, accel: Accelerator, stats: RayStats, tests_per_ray: int | None):
         self.accel = accel
         self.stats = stats
         self.tests_per_ray = tests_per_ray
@@ -94,10 +96,10 @@ class CountingAccelerator:
     def _tests(self, n: int) -> int | None:
         return None if self.tests_per_ray is None else n * self.tests_per_ray
 
-    def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf):
+    def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0):
         self.stats.add(len(origins), False, self._tests(len(origins)))
-        return self.accel.closest_hit(origins, directions, t_min, t_max)
+        return self.accel.closest_hit(origins, directions, t_min, t_max, width)
 
-    def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf):
+    def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0):
         self.stats.add(len(origins), True, self._tests(len(origins)))
-        return self.accel.any_hit(origins, directions, t_min, t_max)
+        return self.accel.any_hit(origins, directions, t_min, t_max, width)

@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .compile import CompiledScene
-from .hits import Hits, geometric_normals, hit_materials
-from .options import RenderOptions
-from .scene import Scene
+from ..accel.compile import CompiledScene
+from ..accel.hits import Accelerator, Hits, geometric_normals, hit_materials
+from ..options import RenderOptions
+from ..scene.graph import Scene
 from .shading import MaterialTable, light_directions, phong
 from .texturing import leaf_weights
 
@@ -25,7 +25,7 @@ class RenderContext:
 
     scene: Scene
     compiled: CompiledScene
-    accel: object
+    accel: Accelerator
     options: RenderOptions = field(default_factory=RenderOptions)
     materials: MaterialTable | None = None
 

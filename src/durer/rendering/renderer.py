@@ -9,15 +9,18 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..accel.brute import BruteForce
+from ..accel.bvh import BVHAccelerator
+from ..accel.compile import compile_scene, spheres_under_transform, with_course_edges
+from ..accel.grid import GridAccelerator
+from ..accel.stats import CountingAccelerator, RayStats
+from ..io.images import depth_visualization, normal_visualization, save_image
+from ..options import RenderOptions
+from ..scene.graph import Scene
 from . import film
-from .bvh import BVHAccelerator
-from .compile import compile_scene, with_course_edges
-from .hits import BruteForce
-from .integrators import RenderContext, SampleResult, raycast
-from .io.images import depth_visualization, normal_visualization, save_image
-from .options import RenderOptions
-from .scene import Scene
-from .stats import CountingAccelerator, RayStats
+from .grid_view import visualize_grid
+from .raycaster import RenderContext, SampleResult, raycast
+from .whitted import whitted
 
 CHUNK = 1 << 13  # rays per batch: enough to keep the kernels busy, few enough for a live progress bar
 
@@ -75,8 +78,6 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
     stats = RayStats(bounds=cs.bounds()) if options.stats else None
     if options.grid is not None:
-        from .grid import GridAccelerator, spheres_under_transform
-
         accel = GridAccelerator(cs, options.grid, sphere_as_box=spheres_under_transform(scene), stats=stats)
         accel.cs = hit_cs  # cells hold the triangles' boxes as given (the course's insertion); tests use hit_cs
     elif stats is not None:
@@ -89,12 +90,8 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
 def choose_integrator(options: RenderOptions):
     """The lecture's ray caster unless the options ask for secondary rays (or for the grid's cells)."""
     if options.visualize_grid:  # -visualize_grid (grid.py): draw the occupied grid cells instead
-        from .grid import visualize_grid
-
         return visualize_grid
     if options.shadows or options.bounces > 0:
-        from .tracer import whitted
-
         return whitted
     return raycast
 

@@ -17,37 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kernels.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
 from .compile import CompiledScene
-from .hits import Hits, _per_ray
-from .kernels.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
-from .scene import Group, Scene, Transform
-from .shapes import Sphere
+from .hits import Hits, per_ray
 from .stats import RayStats
-
-# -visualize_grid colours a cell by how many primitives it holds: white 1, magenta 2, then through blue, cyan,
-# green and yellow to red for 17 or more (the colours measured off the course's reference images).
-COUNT_COLORS = np.array([
-    (1.0, 1.0, 1.0), (1.0, 0.0, 1.0), (0.7, 0.0, 1.0), (0.3, 0.0, 1.0), (0.0, 0.0, 1.0), (0.0, 0.3, 1.0),
-    (0.0, 0.7, 1.0), (0.0, 1.0, 1.0), (0.0, 1.0, 0.7), (0.0, 1.0, 0.3), (0.0, 1.0, 0.0), (0.3, 1.0, 0.0),
-    (0.7, 1.0, 0.0), (1.0, 1.0, 0.0), (1.0, 0.7, 0.0), (1.0, 0.3, 0.0), (1.0, 0.0, 0.0),
-])
-
-
-def spheres_under_transform(scene: Scene) -> np.ndarray:
-    """(S,) bool, in CompiledScene order: is sphere k below some Transform node of the scene tree?"""
-    flags: list[bool] = []
-
-    def visit(obj, transformed: bool) -> None:
-        if isinstance(obj, Group):
-            for child in obj.objects:
-                visit(child, transformed)
-        elif isinstance(obj, Transform):
-            visit(obj.object, True)
-        elif isinstance(obj, Sphere):
-            flags.append(transformed)
-
-    visit(scene.group, False)
-    return np.array(flags, dtype=bool)
 
 
 def _sphere_boxes(cs: CompiledScene, as_box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -157,25 +130,25 @@ class GridAccelerator:
             return False, np.zeros(0, np.int64), np.zeros(0, np.int64)
         return True, np.zeros(n, np.int64), np.zeros(n, np.int64)
 
-    def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> Hits:
+    def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> Hits:
         n = len(origins)
         h = Hits.empty(n)
         count, tests, cells = self._counters(n)
         closest_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
                          np.ascontiguousarray(directions, dtype=np.float64),
-                         _per_ray(t_min, n), _per_ray(t_max, n), *self._geometry(),
+                         per_ray(t_min, n), per_ray(t_max, n), *self._geometry(),
                          h.t, h.kind, h.prim, h.u, h.v, count, tests, cells)
         if count:
             self.stats.add(n, False, int(tests.sum()), int(cells.sum()))
         return h
 
-    def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf) -> np.ndarray:
+    def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)
         count, tests, cells = self._counters(n)
         any_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
                      np.ascontiguousarray(directions, dtype=np.float64),
-                     _per_ray(t_min, n), _per_ray(t_max, n), *self._geometry(), out, count, tests, cells)
+                     per_ray(t_min, n), per_ray(t_max, n), *self._geometry(), out, count, tests, cells)
         if count:
             self.stats.add(n, True, int(tests.sum()), int(cells.sum()))
         return out
@@ -191,48 +164,8 @@ class GridAccelerator:
         cells = np.zeros(n if self.stats is not None else 0, np.int64)
         exact_box = np.array([self.lo, self.hi])
         first_occupied_cell(np.ascontiguousarray(origins, dtype=np.float64),
-                            np.ascontiguousarray(directions, dtype=np.float64), _per_ray(t_min, n),
+                            np.ascontiguousarray(directions, dtype=np.float64), per_ray(t_min, n),
                             self.lo, exact_box, self.size, self.dims, self.start, t, axis, count, cells)
         if self.stats is not None:
             self.stats.add(n, False, 0, int(cells.sum()))
         return t, axis, count
-
-
-def visualize_grid(ctx, origins: np.ndarray, directions: np.ndarray, t_min: float):
-    """Integrator for -visualize_grid: each ray shows the first occupied cell it enters, as an opaque box.
-
-    The face's normal is that of the cell face crossed to enter it (the axis the 3D-DDA stepped last, facing
-    the ray); its colour is COUNT_COLORS by the cell's primitive count, lit like a diffuse material by the
-    scene's lights and ambient light. Planes are not in the grid and are not drawn.
-    """
-    from .integrators import SampleResult
-    from .shading import light_directions, phong
-
-    grid = ctx.accel
-    if not isinstance(grid, GridAccelerator):
-        raise ValueError("-visualize_grid needs the grid accelerator (-grid NX NY NZ)")
-    scene = ctx.scene
-    n = len(origins)
-    t, axis, count = grid.first_occupied(origins, directions, t_min)
-    hit = np.isfinite(t)
-    color = np.broadcast_to(scene.background_color, (n, 3)).copy()
-    normals = np.zeros((n, 3))
-    d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-    rows = np.flatnonzero(hit & (axis >= 0))
-    normals[rows, axis[rows]] = -np.sign(d[rows, axis[rows]])
-    inside = hit & (axis < 0)
-    normals[inside] = -d[inside]
-    if hit.any():
-        kd = COUNT_COLORS[np.minimum(count[hit], len(COUNT_COLORS)) - 1]
-        if scene.lights is None:
-            color[hit] = kd
-        else:
-            points = origins[hit] + t[hit, None] * directions[hit]
-            shaded = scene.ambient_light * kd
-            zero = np.zeros_like(kd)
-            for light in scene.lights:
-                to_light, light_color, _ = light_directions(light, points)
-                shaded = shaded + phong(normals[hit], -d[hit], to_light, light_color, kd, zero,
-                                        np.ones(len(kd)))
-            color[hit] = shaded
-    return SampleResult(color, t, normals)

@@ -35,9 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kernels.noise import turbulence
-from .materials import PhongMaterial
-from .textures import Checkerboard, Marble, Noise, Wood
+from ..kernels.noise import turbulence
+from ..scene.materials import PhongMaterial
+from ..scene.textures import Checkerboard, Marble, Noise, Wood
 
 WOOD_Y_TWIST = 0.05        # phase drift of the rings along the axis, per texture unit and unit of frequency (fitted)
 WOOD_NOISE_Y_SCALE = 0.2   # the noise's coordinate along the axis is scaled by this (fitted, see above)

@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .integrators import RenderContext, SampleResult, shade_local, surface
+from .raycaster import RenderContext, SampleResult, shade_local, surface
 from .shading import light_directions
+from .texturing import leaf_weights
 
 RAY_EPSILON = 1e-4
 """Distance (world units) that secondary and shadow rays skip before counting a hit, against self-intersection."""
@@ -79,15 +80,9 @@ def secondary_coefficients(ctx: RenderContext, mat: np.ndarray,
     """reflectiveColor (N,3), transparentColor (N,3) and indexOfRefraction (N,) at the hits.
 
     Solid-texture materials (assignment 6) blend their leaf materials with the same weights as local shading,
-    through `durer.texturing.leaf_weights` when that module provides it; plain Phong materials index the table.
+    through `texturing.leaf_weights`; plain Phong materials are their own single leaf.
     """
     table = ctx.materials
-    try:
-        from .texturing import leaf_weights
-    except ImportError:
-        leaf_weights = None
-    if leaf_weights is None:
-        return table.reflective[mat], table.transparent[mat], table.ior[mat]
     reflective = np.zeros((len(mat), 3))
     transparent = np.zeros((len(mat), 3))
     ior = np.zeros(len(mat))

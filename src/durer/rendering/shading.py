@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lights import DirectionalLight, PointLight
-from .materials import PhongMaterial
+from ..scene.lights import DirectionalLight, PointLight
+from ..scene.materials import PhongMaterial
 
 
 @dataclass

@@ -1,0 +1,356 @@
+"""BVH construction (Numba): a binned-SAH binary tree, collapsed into the 4-wide layout of kernels/layout.py.
+
+Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .layout import JIT, LEAF_COUNT_BITS, MAX_LEAF
+from .threads import thread_pool
+
+N_BINS = 16           # SAH bins per axis
+TRAVERSAL_COST = 2.0  # SAH: cost of a node visit (4 box tests) relative to one primitive test
+
+@nb.njit(**JIT)
+def _area(lx, ly, lz, hx, hy, hz):
+    ex, ey, ez = hx - lx, hy - ly, hz - lz
+    if ex < 0.0:
+        return 0.0
+    return ex * ey + ey * ez + ez * ex
+
+
+@nb.njit(**JIT)
+def item_boxes(tris, sphere_lo, sphere_hi):
+    """Boxes (n, 3) lo and hi of the triangles (F, 9) followed by the spheres' boxes (S, 3)."""
+    f = tris.shape[0]
+    n = f + sphere_lo.shape[0]
+    lo = np.empty((n, 3))
+    hi = np.empty((n, 3))
+    for i in range(f):
+        for a in range(3):
+            x, y, z = tris[i, a], tris[i, 3 + a], tris[i, 6 + a]
+            lo[i, a] = min(x, y, z)
+            hi[i, a] = max(x, y, z)
+    for i in range(f, n):
+        for a in range(3):
+            lo[i, a] = sphere_lo[i - f, a]
+            hi[i, a] = sphere_hi[i - f, a]
+    return lo, hi
+
+
+@nb.njit(**JIT)
+def leaf_items(tris, order):
+    """leaf_prim (triangle id, or -(sphere + 1)) and leaf_tri (the triangle's 9 coordinates, zeros for a
+    sphere) in leaf order."""
+    f = tris.shape[0]
+    n = order.shape[0]
+    leaf_prim = np.empty(n, np.int32)
+    leaf_tri = np.zeros((n, 9))
+    for j in range(n):
+        p = order[j]
+        if p < f:
+            leaf_prim[j] = p
+            for q in range(9):
+                leaf_tri[j, q] = tris[p, q]
+        else:
+            leaf_prim[j] = -(p - f) - 1
+    return leaf_prim, leaf_tri
+
+
+@nb.njit(**JIT)
+def build_bvh2(lo, hi, max_leaf, defer):
+    """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays, the item order and the deferred nodes.
+
+    Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
+    Each node bins its items' centroids into N_BINS per axis (fewer, 2 per item, for nodes of under 8 items),
+    sweeps the bins for the cheapest SAH split, and becomes a leaf when that is cheaper (and it holds at most
+    max_leaf items) or no split separates centroids.
+    The items' boxes and centroids are kept in node order (moved with the partition), so every pass reads
+    memory contiguously, and each node makes two passes over its items: binning, and the partition, which also
+    gives the children their boxes and centroid bounds.
+    With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in the
+    returned (k, 3) array as (node, first, end), so build_wide_bvh can build those subtrees on other threads.
+    """
+    n = lo.shape[0]
+    cap = max(2 * n, 1)
+    box = np.empty((cap, 6))
+    left = np.full(cap, -1, np.int32)
+    right = np.full(cap, -1, np.int32)
+    start = np.zeros(cap, np.int32)
+    count = np.zeros(cap, np.int32)
+    order = np.arange(n).astype(np.int32)
+    ib = np.empty((n, 9))       # per item, in node order: lo xyz, hi xyz, centroid xyz
+    cb = np.empty((cap, 6))     # per node: centroid bounds
+    for a in range(6):
+        cb[0, a] = np.inf if a < 3 else -np.inf
+        box[0, a] = np.inf if a < 3 else -np.inf
+    for i in range(n):
+        for a in range(3):
+            lo_, hi_ = lo[i, a], hi[i, a]
+            c = 0.5 * (lo_ + hi_)
+            ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = lo_, hi_, c
+            box[0, a] = min(box[0, a], lo_)
+            box[0, 3 + a] = max(box[0, 3 + a], hi_)
+            cb[0, a] = min(cb[0, a], c)
+            cb[0, 3 + a] = max(cb[0, 3 + a], c)
+
+    bin_box = np.empty((3, N_BINS, 6))
+    bin_cnt = np.zeros((3, N_BINS), np.int64)
+    right_area = np.empty(N_BINS)
+    right_cnt = np.empty(N_BINS, np.int64)
+    scale = np.zeros(3)
+    tmp = np.empty(9)
+    stack = np.empty((128, 3), np.int64)   # node, first, end; depth-first keeps the stack at the tree depth
+    m = 1
+    stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
+    sp = 1
+    deferred = np.empty((cap if defer > 0 else 0, 3), np.int64)
+    n_def = 0
+    while sp > 0:
+        sp -= 1
+        node, first, end = stack[sp, 0], stack[sp, 1], stack[sp, 2]
+        cnt = end - first
+        start[node] = first
+        count[node] = cnt
+        if cnt <= 1:
+            continue
+        if node != 0 and cnt <= defer:
+            deferred[n_def, 0], deferred[n_def, 1], deferred[n_def, 2] = node, first, end
+            n_def += 1
+            continue
+        nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
+        # bin centroids on all three axes in one pass
+        bin_cnt[:, :] = 0
+        for a in range(3):
+            for b in range(nbins):
+                for k in range(3):
+                    bin_box[a, b, k] = np.inf
+                    bin_box[a, b, 3 + k] = -np.inf
+        n_axes = 0
+        for a in range(3):
+            ext = cb[node, 3 + a] - cb[node, a]
+            scale[a] = nbins * (1.0 - 1e-9) / ext if ext > 0.0 else 0.0
+            if ext > 0.0:
+                n_axes += 1
+        if n_axes == 0:
+            if cnt <= 7:
+                continue  # coincident centroids: no plane separates them
+        else:
+            for j in range(first, end):
+                for a in range(3):
+                    if scale[a] == 0.0:
+                        continue
+                    b = int((ib[j, 6 + a] - cb[node, a]) * scale[a])
+                    if b >= nbins:
+                        b = nbins - 1
+                    bin_cnt[a, b] += 1
+                    for k in range(3):
+                        bin_box[a, b, k] = min(bin_box[a, b, k], ib[j, k])
+                        bin_box[a, b, 3 + k] = max(bin_box[a, b, 3 + k], ib[j, 3 + k])
+        # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the nbins-1 planes
+        best_cost = np.inf
+        best_axis = -1
+        best_bin = 0
+        for a in range(3):
+            if scale[a] == 0.0:
+                continue
+            rl0 = rl1 = rl2 = np.inf
+            rh0 = rh1 = rh2 = -np.inf
+            rc = 0
+            for b in range(nbins - 1, 0, -1):
+                bb = bin_box[a, b]
+                rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
+                rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
+                rc += bin_cnt[a, b]
+                right_area[b] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
+                right_cnt[b] = rc
+            ll0 = ll1 = ll2 = np.inf
+            lh0 = lh1 = lh2 = -np.inf
+            lc = 0
+            for b in range(nbins - 1):
+                bb = bin_box[a, b]
+                ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
+                lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
+                lc += bin_cnt[a, b]
+                if lc == 0 or right_cnt[b + 1] == 0:
+                    continue
+                cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[b + 1] * right_cnt[b + 1]
+                if cost < best_cost:
+                    best_cost, best_axis, best_bin = cost, a, b
+        parent_area = _area(box[node, 0], box[node, 1], box[node, 2], box[node, 3], box[node, 4], box[node, 5])
+        leaf_cost = parent_area * cnt
+        split_cost = parent_area * TRAVERSAL_COST + best_cost
+        if best_axis >= 0 and cnt <= max_leaf and leaf_cost <= split_cost:
+            continue
+        l, r = m, m + 1
+        m += 2
+        left[node], right[node] = l, r
+        for a in range(3):
+            box[l, a] = box[r, a] = cb[l, a] = cb[r, a] = np.inf
+            box[l, 3 + a] = box[r, 3 + a] = cb[l, 3 + a] = cb[r, 3 + a] = -np.inf
+        if best_axis < 0:
+            mid = first + cnt // 2  # too many coincident centroids to keep together: split the list in half
+        else:
+            # partition the items by bin; the children's boxes are the unions of their bins
+            a = best_axis
+            i = first
+            k = end - 1
+            lo_a = cb[node, a]
+            sc = scale[a]
+            while i <= k:
+                b = int((ib[i, 6 + a] - lo_a) * sc)
+                if b >= nbins:
+                    b = nbins - 1
+                c = l if b <= best_bin else r
+                for q in range(3):
+                    box[c, q] = min(box[c, q], ib[i, q])
+                    box[c, 3 + q] = max(box[c, 3 + q], ib[i, 3 + q])
+                    cb[c, q] = min(cb[c, q], ib[i, 6 + q])
+                    cb[c, 3 + q] = max(cb[c, 3 + q], ib[i, 6 + q])
+                if b <= best_bin:
+                    i += 1
+                else:
+                    for q in range(9):
+                        tmp[q] = ib[i, q]
+                    for q in range(9):
+                        ib[i, q] = ib[k, q]
+                    for q in range(9):
+                        ib[k, q] = tmp[q]
+                    order[i], order[k] = order[k], order[i]
+                    k -= 1
+            mid = i
+        if best_axis < 0:
+            for j in range(first, end):
+                c = l if j < mid else r
+                for a in range(3):
+                    box[c, a] = min(box[c, a], ib[j, a])
+                    box[c, 3 + a] = max(box[c, 3 + a], ib[j, 3 + a])
+                    cb[c, a] = min(cb[c, a], ib[j, 6 + a])
+                    cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
+        if sp + 2 > stack.shape[0]:
+            grown = np.empty((2 * stack.shape[0], 3), np.int64)
+            for q in range(sp):  # element by element: an array assignment compiles ~5 s of error formatting
+                grown[q, 0], grown[q, 1], grown[q, 2] = stack[q, 0], stack[q, 1], stack[q, 2]
+            stack = grown
+        stack[sp, 0], stack[sp, 1], stack[sp, 2] = r, mid, end
+        stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = l, first, mid
+        sp += 2
+    return box[:m], left[:m], right[:m], start[:m], count[:m], order, deferred[:n_def]
+
+
+@nb.njit(**JIT)
+def collapse_bvh4(box, left, right, start, count):
+    """Turn a binary BVH into the 4-wide layout described at the top: each wide node takes up to four
+    grandchildren, opening the largest-area inner child first. Returns bounds, child and the tree depth."""
+    m = box.shape[0]
+    bounds = np.empty((max(m, 1), 6, 4), np.float32)
+    child = np.zeros((max(m, 1), 4), np.int32)
+    src = np.empty(max(m, 1), np.int64)    # the binary node each wide node was made from
+    depth = np.zeros(max(m, 1), np.int64)
+    src[0] = 0
+    nw = 1
+    max_depth = 1
+    slots = np.empty(4, np.int64)
+    w = 0
+    while w < nw:
+        s = src[w]
+        ns = 0
+        if m == 0:
+            pass
+        elif left[s] < 0:       # a tree that is a single leaf: the root holds it in lane 0
+            slots[0] = s
+            ns = 1
+        else:
+            slots[0], slots[1] = left[s], right[s]
+            ns = 2
+            while ns < 4:
+                best = -1
+                best_area = -1.0
+                for k in range(ns):
+                    q = slots[k]
+                    if left[q] >= 0:
+                        ar = _area(box[q, 0], box[q, 1], box[q, 2], box[q, 3], box[q, 4], box[q, 5])
+                        if ar > best_area:
+                            best_area, best = ar, k
+                if best < 0:
+                    break
+                q = slots[best]
+                slots[best] = left[q]
+                slots[ns] = right[q]
+                ns += 1
+        for lane in range(4):
+            if lane < ns:
+                q = slots[lane]
+                if count[q] == 0:  # an empty tree's root
+                    for a in range(6):
+                        bounds[w, a, lane] = np.inf
+                    child[w, lane] = 0
+                    continue
+                for a in range(3):
+                    bounds[w, a, lane] = np.nextafter(np.float32(box[q, a]), np.float32(-np.inf))
+                    bounds[w, 3 + a, lane] = np.nextafter(np.float32(box[q, 3 + a]), np.float32(np.inf))
+                if left[q] < 0:
+                    child[w, lane] = -((start[q] << LEAF_COUNT_BITS) + count[q]) - 1
+                else:
+                    child[w, lane] = nw
+                    src[nw] = q
+                    depth[nw] = depth[w] + 1
+                    if depth[nw] + 1 > max_depth:
+                        max_depth = depth[nw] + 1
+                    nw += 1
+            else:
+                for a in range(6):
+                    bounds[w, a, lane] = np.inf  # a box at infinity: every slab test misses it
+                child[w, lane] = 0
+        w += 1
+    return bounds[:nw].copy(), child[:nw].copy(), max_depth
+
+
+PARALLEL_BUILD = 100_000  # items from which build_wide_bvh builds subtrees on several threads
+
+
+def _build_subtree(lo, hi, max_leaf, items):
+    return build_bvh2(lo[items], hi[items], max_leaf, 0)
+
+
+def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
+    """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring.
+
+    Large inputs on several threads: the top of the tree is built until its open nodes hold at most n / (4
+    threads) items each; those subtrees are then built concurrently (build_bvh2 is nogil) and stitched in. Each
+    subtree sees its items in the order the serial build would, so the tree is the same as the serial one's.
+    """
+    lo = np.ascontiguousarray(lo, dtype=np.float64)
+    hi = np.ascontiguousarray(hi, dtype=np.float64)
+    n = lo.shape[0]
+    threads = nb.get_num_threads()
+    if n < PARALLEL_BUILD or threads < 2:
+        box, left, right, start, count, order, _ = build_bvh2(lo, hi, max_leaf, 0)
+    else:
+        box, left, right, start, count, order, deferred = build_bvh2(lo, hi, max_leaf, n // (4 * threads))
+        pool = thread_pool(threads)
+        big_first = np.argsort(deferred[:, 1] - deferred[:, 2], kind="stable")
+        futures = {int(k): pool.submit(_build_subtree, lo, hi, max_leaf, order[deferred[k, 1]:deferred[k, 2]])
+                   for k in big_first}
+        parts = [box], [left], [right], [start], [count]
+        m = len(box)
+        for k in range(len(deferred)):
+            node, first, end = (int(x) for x in deferred[k])
+            sb, sl, sr, ss, sc, so, _ = futures[k].result()
+            # subtree node 0 takes the deferred node's place, the others are appended from m on
+            remap = lambda c, m=m: np.where(c > 0, c + (m - 1), c).astype(np.int32)  # noqa: E731
+            box[node], left[node], right[node] = sb[0], remap(sl[:1])[0], remap(sr[:1])[0]
+            start[node], count[node] = ss[0] + first, sc[0]
+            parts[0].append(sb[1:])
+            parts[1].append(remap(sl[1:]))
+            parts[2].append(remap(sr[1:]))
+            parts[3].append((ss[1:] + first).astype(np.int32))
+            parts[4].append(sc[1:])
+            order[first:end] = order[first:end][so]
+            m += len(sb) - 1
+        box, left, right, start, count = (np.concatenate(p) for p in parts)
+    bounds, child, depth = collapse_bvh4(box, left, right, start, count)
+    return bounds, child, order, int(depth)

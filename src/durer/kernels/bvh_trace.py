@@ -1,0 +1,144 @@
+"""The one-level kernels (Numba): batches of rays against one tree and the planes beside it.
+
+Rays go in chunks of PACKET: a coherent chunk is traced as a packet (kernels/bvh_packet.py), any other one ray at a
+time (kernels/bvh_single.py). The kernels are serial and nogil; threads.run_blocks spreads their blocks over
+threads (cheaper to compile and to load from the cache than a parallel=True kernel).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .bvh_packet import (
+    _BEST,
+    _DET,
+    _DX,
+    _DY,
+    _DZ,
+    _E1,
+    _E2,
+    _NROW,
+    _OX,
+    _OY,
+    _OZ,
+    _PRIM,
+    _TMIN,
+    chunk_rays,
+    packet_setup,
+    packet_traverse,
+)
+from .bvh_single import blas_any, blas_closest, planes_closest
+from .layout import BLOCK, JIT, MISS, PACKET, PLANE, SPHERE, TILE, TRIANGLE
+
+
+@nb.njit(**JIT)
+def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
+                    sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size,
+                    width, t_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
+    """Closest hit of rays in blocks blk0..blk1 (BLOCK * PACKET rays each) against one tree (root 0) and the
+    planes beside it; fills the Hits arrays. Chunks of PACKET rays that are coherent go through
+    packet_traverse, the others one ray at a time. Serial and nogil: run_blocks spreads the blocks over
+    threads (cheaper to compile and to load from the cache than a parallel=True kernel)."""
+    n = origins.shape[0]
+    n_chunks = (n + PACKET - 1) // PACKET
+    stack_node = np.empty(stack_size, np.int32)
+    stack_t = np.empty(stack_size)
+    dist = np.empty(4)
+    rr = np.empty((_NROW, PACKET))
+    pprims = np.empty(PACKET, np.int32)
+    key = np.empty(4)
+    order = np.empty(4, np.int64)
+    idx = np.empty(PACKET, np.int64)
+    for blk in range(blk0, blk1):
+        for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
+            m = chunk_rays(c, n, width, idx)
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr)
+            if coherent and m == PACKET:
+                for k in range(PACKET):
+                    best, pprims[k] = planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
+                                                      rr[_DX, k], rr[_DY, k], rr[_DZ, k], rr[_TMIN, k],
+                                                      rr[_BEST, k])
+                    rr[_BEST, k] = best
+                packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, False)
+                for k in range(PACKET):
+                    i = idx[k]
+                    pr = rr[_PRIM, k]  # triangle id, -(sphere + 1), or -inf: nothing in the tree was hit
+                    if pr > -np.inf:
+                        t_out[i] = rr[_BEST, k]
+                        kind_out[i] = TRIANGLE if pr >= 0.0 else SPHERE
+                        prim_out[i] = np.int32(pr) if pr >= 0.0 else np.int32(-pr - 1.0)
+                        u_out[i] = rr[_E1, k] / rr[_DET, k]
+                        v_out[i] = rr[_E2, k] / rr[_DET, k]
+                    elif pprims[k] >= 0:
+                        t_out[i], kind_out[i], prim_out[i] = rr[_BEST, k], PLANE, pprims[k]
+                        u_out[i], v_out[i] = 0.0, 0.0
+                    else:
+                        t_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = np.inf, MISS, -1, 0.0, 0.0
+                continue
+            for q in range(m):
+                i = idx[q]
+                ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+                dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+                lo = t_min[i]
+                best, pprim = planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo, t_max[i])
+                t, kind, prim, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius,
+                                                   sph_w2o, ox, oy, oz, dx, dy, dz, lo, best, stack_node, stack_t,
+                                                   dist)
+                if kind == MISS and pprim >= 0:
+                    t, kind, prim = best, PLANE, pprim
+                t_out[i] = t
+                kind_out[i] = kind
+                prim_out[i] = prim
+                u_out[i] = u
+                v_out[i] = v
+
+
+@nb.njit(**JIT)
+def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, leaf_tri,
+                sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, stack_size, width, out, blk0, blk1):
+    """out[i] = whether ray i (in blocks blk0..blk1) hits anything with t_min < t < t_max; planes first, then
+    the tree (in packets when coherent, as in closest_hit_bvh)."""
+    n = origins.shape[0]
+    n_chunks = (n + PACKET - 1) // PACKET
+    stack_node = np.empty(stack_size, np.int32)
+    stack_t = np.empty(stack_size)
+    dist = np.empty(4)
+    rr = np.empty((_NROW, PACKET))
+    key = np.empty(4)
+    order = np.empty(4, np.int64)
+    idx = np.empty(PACKET, np.int64)
+    for blk in range(blk0, blk1):
+        for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
+            m = chunk_rays(c, n, width, idx)
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr)
+            if coherent and m == PACKET:
+                for k in range(PACKET):
+                    _, pprim = planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
+                                               rr[_DX, k], rr[_DY, k], rr[_DZ, k], rr[_TMIN, k], rr[_BEST, k])
+                    if pprim >= 0:
+                        rr[_BEST, k] = -np.inf
+                packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, True)
+                for k in range(PACKET):
+                    out[idx[k]] = rr[_BEST, k] == -np.inf
+                continue
+            for q in range(m):
+                i = idx[q]
+                ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+                dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+                _, pprim = planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min[i], t_max[i])
+                if pprim >= 0:
+                    out[i] = True
+                else:
+                    out[i] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                      ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node, dist)
+
+
+def image_width(shape: tuple[int, ...]) -> int:
+    """The `width` argument of closest_hit_bvh / any_hit_bvh for rays laid out as `shape` (leading dimensions):
+    the image width when the rays form an image whose sides are multiples of 4 (4 x 4 tile packets), else 0."""
+    if len(shape) >= 2 and shape[-1] % TILE == 0 and shape[-2] % TILE == 0 and shape[-1] > 0 and shape[-2] > 0:
+        return int(shape[-1])
+    return 0

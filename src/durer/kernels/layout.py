@@ -1,0 +1,71 @@
+"""The memory layout every BVH kernel shares: hit kinds, node rows, leaf codes, packet shape, Numba options.
+
+A 4-wide BVH whose nodes hold their children's boxes, float32, structure of arrays, so one node visit tests four
+boxes from one 96-byte block (measured fastest of the variants tried, see benchmarks/README.md):
+
+    bounds[node, row, lane]  float32 (N, 6, 4), rows = lo x, lo y, lo z, hi x, hi y, hi z (rounded outwards);
+                             the kernels read it flat: row r of lane l at node * NODE_FLOATS + ROW[r] + l
+    child[node, lane]        int32   (N, 4):  > 0 inner node, 0 empty slot (its box sits at +inf),
+                                              < 0 leaf = leaf_code(start, count)
+
+Node 0 is the root of the first tree, so 0 never names a child. A leaf's items are slots start..start+count of
+the leaf arrays, stored in leaf order so a leaf reads one contiguous block:
+
+    leaf_prim[slot]  int32: >= 0 triangle id, < 0 sphere -(s + 1) into the sphere arrays
+    leaf_tri[slot]   float64 (9,): the triangle's vertices (unused for spheres)
+
+Boxes are float32 to halve the traversal's memory traffic; the slab test itself runs in float64 against boxes
+rounded outwards, with the far distance widened by a few ulps (Ize 2013), so rounding never culls a real hit.
+Several trees (one per mesh) can share these arrays; a second, top-level tree over instances then gives the
+two-level BVH of accel/bvh.py: a mesh used twice is stored once.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+JIT = dict(cache=True, error_model="numpy", nogil=True)
+
+# what a ray hit: the `kind` of every hit record (accel/hits.py), the same in every kernel
+MISS, TRIANGLE, SPHERE, PLANE = 0, 1, 2, 3
+
+# node layout: floats per node, and the flat offset of each row of bounds within a node (4 lanes a row)
+WIDTH = 4
+NODE_FLOATS = 6 * WIDTH
+LO_X, LO_Y, LO_Z, HI_X, HI_Y, HI_Z = (row * WIDTH for row in range(6))
+
+# leaf codes: child = -(start * 8 + count) - 1, so up to 7 items a leaf
+LEAF_COUNT_BITS = 3
+LEAF_COUNT_MASK = (1 << LEAF_COUNT_BITS) - 1
+
+MAX_LEAF = 4          # items per leaf (the build may go up to 7 when all centroids coincide)
+FAR_WIDEN = 1e-15     # relative widening of the slab test's far distance: covers float64 rounding
+RAY_CHUNK = 64        # rays per parallel work item: neighbouring (coherent) rays share a thread's cache
+TILE = 4              # an image's rays are traced in TILE x TILE packets
+PACKET = TILE * TILE  # rays in a packet
+BLOCK = 8             # packets per parallel work item of the one-level kernels (amortises the scratch)
+
+
+@nb.njit(**JIT, inline="always")
+def leaf_range(code):
+    """The slots start..end of the leaf that child code `code` (< 0) names."""
+    v = -code - 1
+    first = v >> LEAF_COUNT_BITS
+    return first, first + (v & LEAF_COUNT_MASK)
+
+
+def leaf_codes(start: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """Child codes of leaves holding slots start..start+count (NumPy; leaf_slots and leaf_range invert it)."""
+    return -((np.asarray(start, np.int64) << LEAF_COUNT_BITS) + count) - 1
+
+
+def leaf_slots(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(start, count) of the leaves that child codes `codes` (< 0) name: leaf_range for NumPy arrays."""
+    v = -np.asarray(codes, np.int64) - 1
+    return v >> LEAF_COUNT_BITS, v & LEAF_COUNT_MASK
+
+
+def stack_size_for(depth: int) -> int:
+    """Traversal stack entries a tree of this depth can need: three deferred children per level, plus slack."""
+    return 3 * int(depth) + 8

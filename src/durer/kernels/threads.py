@@ -1,0 +1,39 @@
+"""Spreading serial, nogil kernels over threads: a shared pool, and the work items of the one-level kernels."""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numba as nb
+
+from .layout import BLOCK, PACKET
+
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+
+
+def thread_pool(threads: int) -> ThreadPoolExecutor:
+    """The process's pool of `threads` worker threads (made once, reused by every call)."""
+    pool = _POOLS.get(threads)
+    if pool is None:
+        pool = _POOLS[threads] = ThreadPoolExecutor(threads, thread_name_prefix="durer-bvh")
+    return pool
+
+
+def n_blocks(n_rays: int) -> int:
+    """Work items of closest_hit_bvh / any_hit_bvh for n_rays rays."""
+    return -(-int(n_rays) // (PACKET * BLOCK))
+
+
+def run_blocks(kernel, n_rays: int, *args) -> None:
+    """kernel(*args, blk0, blk1) over all blocks, on numba.get_num_threads() threads (the kernels are nogil):
+    a few pieces per thread from a shared pool, so an unlucky slow piece does not idle the other thread."""
+    total = n_blocks(n_rays)
+    threads = min(nb.get_num_threads(), total)
+    if threads <= 1:
+        kernel(*args, 0, total)
+        return
+    pool = thread_pool(threads)
+    pieces = min(total, 8 * threads)
+    edges = [total * k // pieces for k in range(pieces + 1)]
+    for f in [pool.submit(kernel, *args, edges[k], edges[k + 1]) for k in range(pieces)]:
+        f.result()
