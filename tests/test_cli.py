@@ -71,7 +71,7 @@ def test_render_help_documents_every_option(capsys):
     assert e.value.code == 0
     text = capsys.readouterr().out
     for option in ("--output", "--size", "--depth", "--normals", "--quiet", "--shadows", "--bounces", "--weight",
-                   "--samples", "--filter", "--seed", "--shade-back", "--mesh-path", "--linear"):
+                   "--samples", "--filter", "--seed", "--shade-back", "--mesh-path", "--linear", "--accel"):
         assert option in text
 
 
@@ -92,6 +92,7 @@ BAD_FLAGS = [
     ["render", "SCENE", "-o", "x.png", "--filter", "sinc"],
     ["render", "SCENE", "-o", "x.png", "--filter", "gaussian:-1"],
     ["render", "SCENE", "-o", "x.png", "--size", "10"],
+    ["render", "SCENE", "-o", "x.png", "--accel", "kdtree"],
     ["frobnicate"],
     [],
 ]
@@ -140,3 +141,14 @@ def test_gui_flags_are_accepted_and_ignored(scene, tmp_path, capsys):
 def test_version(capsys):
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.startswith("durer ")
+
+
+def test_render_with_the_lecture_loop_gives_the_same_image(scene, tmp_path, capsys):
+    """--accel brute runs kernels/brute.py (every ray against every object): the same pixels as the BVH."""
+    for accel in ("bvh", "brute"):
+        code, _, err = run(["render", str(scene), "-o", str(tmp_path / f"{accel}.png"), "--size", "24", "16",
+                            "--accel", accel, "-q"], capsys)
+        assert code == 0, err
+    bvh = np.asarray(Image.open(tmp_path / "bvh.png"))
+    assert bvh.max() > 0
+    np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "brute.png")), bvh)

@@ -130,3 +130,22 @@ def test_progress_bar_only_on_a_terminal_and_never_when_quiet(monkeypatch, tty, 
     bar.close()
     if not shown:
         assert fake.text == ""
+
+
+def test_accel_brute_is_the_lecture_loop_with_the_same_results():
+    """durer.render(..., accel="brute") takes accel/brute.BruteForce, and agrees with the BVH to the bit."""
+    from durer.accel.brute import BruteForce
+    from durer.options import RenderOptions
+    from durer.rendering.renderer import make_context
+
+    scene = simple_scene(lights=[DirectionalLight(direction=(-1, -1, -1), color=(1, 1, 1))])
+    scene.group.objects.append(Plane((0, 1, 0), -1, material=0))
+    assert isinstance(make_context(scene, RenderOptions(accel="brute")).accel, BruteForce)
+    a = durer.render(scene, 20, 14, accel="brute", shadows=True, bounces=2)
+    b = durer.render(scene, 20, 14, shadows=True, bounces=2)
+    np.testing.assert_array_equal(a.color, b.color)
+    np.testing.assert_array_equal(a.depth, b.depth)
+    with pytest.raises(ValueError, match="unknown accelerator"):
+        durer.render(scene, 4, 4, accel="octree")
+    with pytest.raises(ValueError, match="not both"):
+        durer.render(scene, 4, 4, accel="brute", grid=(2, 2, 2))

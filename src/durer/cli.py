@@ -16,7 +16,7 @@ import time
 
 from .errors import DurerError, UsageError
 from .io.images import check_extension
-from .options import FILTERS, SAMPLERS, RenderOptions
+from .options import ACCELERATORS, FILTERS, SAMPLERS, RenderOptions
 
 EXIT_USAGE = 2
 
@@ -219,6 +219,9 @@ def render_parser() -> argparse.ArgumentParser:
                    help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
                         "pixels, e.g. gaussian:0.4 (default: box:0.5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
+    p.add_argument("--accel", choices=ACCELERATORS, default="bvh",
+                   help="how rays find their closest hit: bvh, the bounding volume hierarchy (default), or brute, "
+                        "the lecture's loop over every object (kernels/brute.py; slow on large scenes)")
     p.add_argument("--linear", action="store_true",
                    help="write 8-bit colour without the sRGB curve, truncated as the course does")
     p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
@@ -242,7 +245,7 @@ def run_render(argv: list[str]) -> int:
     sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
     opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
                          samples=a.samples, sampler=sampler, filter=name,
-                         filter_radius=radius if radius is not None else 0.5, seed=a.seed)
+                         filter_radius=radius if radius is not None else 0.5, seed=a.seed, accel=a.accel)
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load

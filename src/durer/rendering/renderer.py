@@ -13,6 +13,7 @@ from ..accel.brute import BruteForce
 from ..accel.bvh import BVHAccelerator
 from ..accel.compile import compile_scene, spheres_under_transform, with_course_edges
 from ..accel.grid import GridAccelerator
+from ..accel.hits import Accelerator
 from ..accel.stats import CountingAccelerator, RayStats
 from ..io.images import depth_visualization, normal_visualization, save_image
 from ..options import RenderOptions
@@ -73,7 +74,8 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     cs = compile_scene(scene)
     # the course command: triangles accept points just outside their edges, as the course's (compile.py)
     hit_cs = with_course_edges(cs) if options.course_edges else cs
-    accel = BVHAccelerator(hit_cs)
+    # the lecture's loop over every object (--accel brute), or the bounding volume hierarchy (the default)
+    accel: Accelerator = BruteForce(hit_cs) if options.accel == "brute" else BVHAccelerator(hit_cs)
     # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
     # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
     stats = RayStats(bounds=cs.bounds()) if options.stats else None
