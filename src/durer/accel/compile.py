@@ -44,6 +44,41 @@ class CompiledScene:
     instance_mesh: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))      # (K,)
     instance_matrix: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))      # (K, 4, 4)
     instance_material: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))  # (K,)
+    # Texture coordinates, only when some mesh has them (else empty): (F, 3, 2) for `triangles`, and one (Fi, 3, 2)
+    # per stored mesh, in the same vertex order as the triangles (zeros for meshes without UVs).
+    triangle_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2)))
+    mesh_uv: tuple = ()
+
+    @property
+    def has_uv(self) -> bool:
+        return len(self.triangle_uv) > 0 or len(self.mesh_uv) > 0
+
+    def uv_at(self, ids, points: np.ndarray) -> np.ndarray:
+        """Texture coordinates (n, 2) at world `points` on virtual triangles `ids` (barycentric interpolation of the
+        corners' UVs; zeros if the scene has none)."""
+        ids = np.asarray(ids, dtype=np.int64)
+        out = np.zeros((len(ids), 2))
+        if not self.has_uv or not len(ids):
+            return out
+        tri = self.triangle(ids)
+        corner_uv = np.zeros((len(ids), 3, 2))
+        f = len(self.triangles)
+        flat = ids < f
+        if len(self.triangle_uv):
+            corner_uv[flat] = self.triangle_uv[ids[flat]]
+        if not flat.all():
+            off = self.instance_offset
+            k = np.searchsorted(off, ids, side="right") - 1
+            for inst in np.unique(k[~flat]):
+                sel = k == inst
+                uv = self.mesh_uv[int(self.instance_mesh[inst])][ids[sel] - off[inst]]
+                corner_uv[sel] = uv[:, [0, 2, 1]] if np.linalg.det(self.instance_matrix[inst][:3, :3]) < 0 else uv
+        e1, e2, p = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0], points - tri[:, 0]
+        d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+        p1, p2 = (p * e1).sum(1), (p * e2).sum(1)
+        det = np.where(np.abs(d11 * d22 - d12 * d12) > 0, d11 * d22 - d12 * d12, 1.0)
+        b1, b2 = (d22 * p1 - d12 * p2) / det, (d11 * p2 - d12 * p1) / det
+        return (1 - b1 - b2)[:, None] * corner_uv[:, 0] + b1[:, None] * corner_uv[:, 1] + b2[:, None] * corner_uv[:, 2]
 
     @property
     def instance_offset(self) -> np.ndarray:
@@ -99,12 +134,17 @@ class CompiledScene:
         if not len(self.instance_mesh):
             return self
         tris = [self.triangles] + [self.instance_triangles(k) for k in range(len(self.instance_mesh))]
+        uv = self.triangle_uv
+        if self.has_uv:
+            uv = np.concatenate([self.triangle_uv.reshape(-1, 3, 2)] + [
+                self.mesh_uv[m][:, [0, 2, 1]] if np.linalg.det(self.instance_matrix[k][:3, :3]) < 0 else self.mesh_uv[m]
+                for k, m in enumerate(self.instance_mesh)])
         mats = [self.triangle_material] + [np.full(len(self.mesh_triangles[m]), mat, np.int32)
                                           for m, mat in zip(self.instance_mesh, self.instance_material, strict=True)]
         return replace(self, triangles=np.ascontiguousarray(np.concatenate(tris)),
                        triangle_material=np.concatenate(mats), mesh_triangles=(),
                        instance_mesh=np.zeros(0, np.int32), instance_matrix=np.zeros((0, 4, 4)),
-                       instance_material=np.zeros(0, np.int32))
+                       instance_material=np.zeros(0, np.int32), triangle_uv=uv, mesh_uv=())
 
     @property
     def nbytes(self) -> int:
@@ -208,6 +248,7 @@ def compile_scene(scene: Scene) -> CompiledScene:
     sph: list[tuple] = []
     planes: list[tuple] = []
     uses: dict = {}
+    uvs: list[np.ndarray] = []  # per entry of tris: (n, 3, 2) corner UVs (zeros without)
 
     def count(obj) -> None:
         if isinstance(obj, Group):
@@ -220,8 +261,10 @@ def compile_scene(scene: Scene) -> CompiledScene:
             uses[key] = uses.get(key, 0) + 1
 
     count(scene.group)
+    any_uv = _any_uv(scene.group)  # UV arrays only when some mesh has UVs (they cost 48 bytes a triangle)
     mesh_index: dict = {}
     meshes: list[np.ndarray] = []
+    mesh_uvs: list[np.ndarray] = []
     instances: list[tuple] = []
 
     def visit(obj, m: np.ndarray) -> None:
@@ -246,12 +289,17 @@ def compile_scene(scene: Scene) -> CompiledScene:
             if key not in mesh_index:
                 mesh_index[key] = len(meshes)
                 meshes.append(np.ascontiguousarray(obj.vertices[obj.faces]))
+                if any_uv:
+                    mesh_uvs.append(_corner_uv(obj))
             instances.append((mesh_index[key], m, obj.material))
         elif isinstance(obj, (Triangle, TriangleMesh)):
             if isinstance(obj, Triangle):
                 v = np.array([[obj.vertex0, obj.vertex1, obj.vertex2]])
             else:
                 v = obj.vertices[obj.faces]
+            if any_uv:  # corner UVs in the placed triangle's vertex order (a mirror swaps v1 and v2)
+                uv = _corner_uv(obj) if isinstance(obj, TriangleMesh) else np.zeros((1, 3, 2))
+                uvs.append(uv[:, [0, 2, 1]] if np.linalg.det(m[:3, :3]) < 0 else uv)
             v = _place(v, m)  # a mirror flips the winding; _place keeps the inverse-transpose normal
             tris.append(v)
             tri_mat.append(np.full(len(v), obj.material, dtype=np.int32))
@@ -274,7 +322,25 @@ def compile_scene(scene: Scene) -> CompiledScene:
         instance_mesh=np.array([i[0] for i in instances], dtype=np.int32),
         instance_matrix=np.array([i[1] for i in instances], dtype=np.float64).reshape(-1, 4, 4),
         instance_material=np.array([i[2] for i in instances], dtype=np.int32),
+        triangle_uv=np.concatenate(uvs) if any_uv and uvs else np.zeros((0, 3, 2)),
+        mesh_uv=tuple(mesh_uvs) if any_uv else (),
     )
+
+
+def _corner_uv(mesh: TriangleMesh) -> np.ndarray:
+    """(F, 3, 2) UVs of each face's corners (zeros for a mesh without UVs)."""
+    if mesh.uvs is None:
+        return np.zeros((len(mesh.faces), 3, 2))
+    return np.ascontiguousarray(mesh.uvs[mesh.faces])
+
+
+def _any_uv(obj) -> bool:
+    """Does any mesh below `obj` carry texture coordinates?"""
+    if isinstance(obj, Group):
+        return any(_any_uv(child) for child in obj.objects)
+    if isinstance(obj, Transform):
+        return _any_uv(obj.object)
+    return isinstance(obj, TriangleMesh) and obj.uvs is not None
 
 
 def spheres_under_transform(scene: Scene) -> np.ndarray:

@@ -17,9 +17,22 @@ def _course(path: str, mesh_path: list[str] | None) -> Scene:
     return load_course_scene(path, mesh_path)
 
 
+def _model(path: str, mesh_path: list[str] | None) -> Scene:
+    from .models import load_model
+
+    return load_model(path, mesh_path)
+
+
 # extension (lower case, with the dot) -> reader(path, mesh_path); anything else is read as a course scene file
 LOADERS: dict[str, Loader] = {
     ".txt": _course,
+    # model files, through trimesh (io/models.py)
+    ".glb": _model,
+    ".gltf": _model,
+    ".obj": _model,
+    ".off": _model,
+    ".ply": _model,
+    ".stl": _model,
 }
 
 

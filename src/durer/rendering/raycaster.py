@@ -11,12 +11,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..accel.compile import CompiledScene
+from ..accel.compile import TRIANGLE, CompiledScene
 from ..accel.hits import Accelerator, Hits, geometric_normals, hit_materials
 from ..options import RenderOptions
 from ..scene.graph import Scene
 from .shading import MaterialTable, light_directions, phong
-from .texturing import leaf_weights
+from .texturing import diffuse_colors, emission, has_image_textures, leaf_weights
 
 
 @dataclass
@@ -28,10 +28,23 @@ class RenderContext:
     accel: Accelerator
     options: RenderOptions = field(default_factory=RenderOptions)
     materials: MaterialTable | None = None
+    textured: bool = False  # some material has an image texture: integrators compute UVs at the hits
 
     def __post_init__(self):
         if self.materials is None and self.scene.lights is not None:
             self.materials = MaterialTable.from_materials(self.scene.materials)
+        self.textured = has_image_textures(self.scene.materials) and self.compiled.has_uv
+
+
+def hit_uv(ctx: RenderContext, hits: Hits, points: np.ndarray) -> np.ndarray | None:
+    """Texture coordinates (N,2) at the hits (zeros elsewhere), or None when no material needs them."""
+    if not ctx.textured:
+        return None
+    uv = np.zeros((len(points), 2))
+    m = hits.kind == TRIANGLE
+    if m.any():
+        uv[m] = ctx.compiled.uv_at(hits.prim[m], points[m])
+    return uv
 
 
 @dataclass
@@ -59,18 +72,20 @@ def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
     color = np.broadcast_to(scene.background_color, (n, 3)).copy()
     points, normals, mat = surface(ctx, origins, directions, hits)
     m = hits.hit
+    uv = hit_uv(ctx, hits, points)
+    uv = None if uv is None else uv[m]
     if scene.lights is None:  # assignment 1: the object's own colour (blended through any solid textures)
         table = MaterialTable.from_materials(scene.materials)
         flat = np.zeros((int(m.sum()), 3))
         for leaf, weight in leaf_weights(scene.materials, mat[m], points[m]):
-            flat += weight[:, None] * table.diffuse[leaf]
+            flat += weight[:, None] * diffuse_colors(scene.materials, table.diffuse, leaf, uv)
         color[m] = flat
     elif m.any():
-        color[m] = shade_local(ctx, points[m], normals[m], directions[m], mat[m])
+        color[m] = shade_local(ctx, points[m], normals[m], directions[m], mat[m], uv=uv)
     return SampleResult(color, hits.t, normals)
 
 
-def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visible=None) -> np.ndarray:
+def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visible=None, uv=None) -> np.ndarray:
     """Ambient + each light's diffuse and specular term at the hits.
 
     A back face (the ray arrives from the side the normal points away from) is flipped and lit when
@@ -78,6 +93,7 @@ def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visi
     `light_visible`, if given, is a list of (N,) masks, one per light (shadow rays).
     Solid textures shade each Phong material they blend and sum the results with the texture's weights
     (the handout's UPDATE 11/2: interpolate the shaded colours, ambient term included).
+    `uv` (N,2), if given, looks up image textures (texturing.diffuse_colors); PBR materials add their emission.
     """
     table = ctx.materials
     d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
@@ -86,8 +102,12 @@ def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visi
     lights = [light_directions(light, points) for light in ctx.scene.lights]
     color = np.zeros((len(points), 3))
     for leaf, weight in leaf_weights(ctx.scene.materials, mat, points):
-        kd, ks, e = table.diffuse[leaf], table.specular[leaf], table.exponent[leaf]
+        kd = diffuse_colors(ctx.scene.materials, table.diffuse, leaf, uv)
+        ks, e = table.specular[leaf], table.exponent[leaf]
         shaded = ctx.scene.ambient_light * kd
+        glow = emission(ctx.scene.materials, leaf)
+        if glow is not None:
+            shaded = shaded + glow
         for i, (to_light, light_color, _) in enumerate(lights):
             contribution = phong(normals, -d, to_light, light_color, kd, ks, e)
             if light_visible is not None:

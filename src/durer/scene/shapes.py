@@ -66,12 +66,14 @@ class Triangle:
 
 @dataclass
 class TriangleMesh:
-    """Indexed triangles: `vertices` (V,3) float, `faces` (F,3) int, 0-based."""
+    """Indexed triangles: `vertices` (V,3) float, `faces` (F,3) int, 0-based; optional texture coordinates
+    `uvs` (V,2), one per vertex, for image textures (PBRMaterial.texture)."""
 
     vertices: np.ndarray
     faces: np.ndarray
     material: int = 0
     source: str | None = field(default=None, compare=False)
+    uvs: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
@@ -83,3 +85,8 @@ class TriangleMesh:
                 f"face index out of range: mesh has {len(self.vertices)} vertices, "
                 f"faces use {self.faces.min()}..{self.faces.max()}"
             )
+        if self.uvs is not None:
+            self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float64)
+            if self.uvs.shape != (len(self.vertices), 2) or not np.isfinite(self.uvs).all():
+                raise ValueError(f"mesh uvs must be finite, one (u, v) pair per vertex: expected "
+                                 f"({len(self.vertices)}, 2), got {self.uvs.shape}")
