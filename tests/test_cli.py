@@ -140,3 +140,117 @@ def test_gui_flags_are_accepted_and_ignored(scene, tmp_path, capsys):
 def test_version(capsys):
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.startswith("durer ")
+
+
+# --- issue 13: model files and the first hour --------------------------------------------------------------------
+@pytest.fixture
+def model(tmp_path):
+    from test_io_models import hand_written_gltf, write_glb
+
+    path = tmp_path / "quads.glb"
+    write_glb(path, *hand_written_gltf())
+    return path
+
+
+def test_render_a_model_through_a_named_camera(model, tmp_path, capsys):
+    front, top = tmp_path / "front.npy", tmp_path / "top.npy"
+    assert run(["render", str(model), "-o", str(tmp_path / "f.png"), "--size", "9", "9", "-q",
+                "--depth", "0", "1", str(front)], capsys)[0] == 0
+    assert run(["render", str(model), "-o", str(tmp_path / "t.png"), "--size", "8", "8", "-q", "--camera", "Top",
+                "--depth", "0", "1", str(top)], capsys)[0] == 0
+    assert np.load(front)[4, 4] == pytest.approx(4.0) and np.load(top)[5, 3] == pytest.approx(6.0)
+
+
+def test_unknown_camera_is_one_line(model, tmp_path, capsys):
+    code, _, err = run(["render", str(model), "-o", str(tmp_path / "o.png"), "--camera", "Side"], capsys)
+    assert code == 2
+    assert err == f"{model}: no camera 'Side' in the model (its cameras: 0 ('Front'), 1 ('Top'))\n"
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_shade_back_is_on_for_render_unless_turned_off(tmp_path, capsys):
+    import trimesh
+
+    ball = trimesh.creation.icosphere(subdivisions=1)
+    ball.faces = ball.faces[:, ::-1]  # inward-facing, as the Stanford bunny
+    ball.export(tmp_path / "ball.ply")
+    for flag, lit in (([], True), (["--no-shade-back"], False)):
+        out = tmp_path / "o.npy"
+        assert run(["render", str(tmp_path / "ball.ply"), "-o", str(out), "--size", "16", "16", "-q", *flag],
+                   capsys)[0] == 0
+        assert bool(np.load(out)[8, 8].min() > 0.2) is lit
+
+
+def test_unreadable_model_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.glb"
+    bad.write_bytes(b"glTF\x02\x00\x00\x00" + bytes(range(256)))
+    code, _, err = run(["render", str(bad), "-o", str(tmp_path / "o.png")], capsys)
+    assert code == 2 and err.count("\n") == 1 and err.startswith(f"{bad}: ") and "Traceback" not in err
+
+
+def test_huge_size_is_one_line_before_anything(scene, tmp_path, capsys):
+    out = tmp_path / "o.png"
+    code, _, err = run(["render", str(scene), "-o", str(out), "--size", "100000", "100000"], capsys)
+    assert code == 2 and err.count("\n") == 1
+    assert err.startswith("durer: a 100000 x 100000 image with 1 sample(s) per pixel would need about 2.6 TB")
+    assert not out.exists()
+
+
+def _two_line_error(err: str) -> str:
+    usage, message = err.rstrip("\n").split("\n")
+    assert usage.startswith("usage: durer render ")
+    return message
+
+
+def test_folder_in_the_way_is_found_before_rendering(scene, tmp_path, capsys, monkeypatch):
+    from durer.rendering import renderer
+
+    monkeypatch.setattr(renderer, "render", lambda *a, **k: pytest.fail("rendered before checking the output"))
+    (tmp_path / "o.png").mkdir()
+    code, _, err = run(["render", str(scene), "-o", str(tmp_path / "o.png")], capsys)
+    assert code == 2 and _two_line_error(err) == f"durer render: error: cannot write '{tmp_path / 'o.png'}': it is a folder"
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "geteuid") or __import__("os").geteuid() == 0,
+                    reason="root may write anywhere, so a read-only folder cannot be tested as root")
+def test_read_only_folder_is_found_before_rendering(scene, tmp_path, capsys):
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        code, _, err = run(["render", str(scene), "-o", str(folder / "o.png")], capsys)
+    finally:
+        folder.chmod(0o755)
+    assert code == 2 and "no permission to write in folder" in _two_line_error(err)
+    assert list(folder.iterdir()) == []
+
+
+def test_write_errors_name_the_users_path(scene, tmp_path, capsys, monkeypatch):
+    import durer.io.images as images
+
+    def refuse(src, dst):
+        raise PermissionError(13, "Permission denied", src)
+
+    monkeypatch.setattr(images.os, "replace", refuse)
+    out = tmp_path / "o.png"
+    code, _, err = run(["render", str(scene), "-o", str(out), "--size", "4", "4", "-q"], capsys)
+    assert code == 2 and err == f"durer: cannot write '{out}': Permission denied\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.txt"]  # the temporary file is gone too
+
+
+def test_compile_notice_on_a_cold_start(scene, tmp_path, capsys, monkeypatch):
+    from durer.rendering import renderer
+
+    monkeypatch.setattr(renderer, "kernels_cold", lambda: True)
+    code, _, err = run(["render", str(scene), "-o", str(tmp_path / "o.png"), "--size", "4", "4"], capsys)
+    assert code == 0 and err.splitlines()[0] == "durer: compiling kernels (first run only) ..."
+
+
+@pytest.mark.parametrize("argv", [["-h"], ["render", "-h"], ["raycast", "-h"]])
+def test_closed_pipe_ends_quietly(argv):
+    p = subprocess.Popen([sys.executable, "-m", "durer", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()  # the reader is gone before durer writes: `durer -h | head -0`
+    err = p.stderr.read().decode()
+    p.stderr.close()
+    assert p.wait(timeout=60) == 0
+    assert err == ""
