@@ -254,3 +254,11 @@ def test_closed_pipe_ends_quietly(argv):
     p.stderr.close()
     assert p.wait(timeout=60) == 0
     assert err == ""
+
+
+def test_default_size_follows_the_gltf_cameras_aspect(tmp_path, capsys):
+    from conftest import REPO
+
+    out = tmp_path / "o.png"
+    assert run(["render", str(REPO / "examples" / "spotlights.gltf"), "-o", str(out), "-q"], capsys)[0] == 0
+    assert Image.open(out).size == (512, 384)  # the file's camera: aspectRatio 4/3

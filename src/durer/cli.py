@@ -198,8 +198,9 @@ def render_parser() -> argparse.ArgumentParser:
                        "linear colour, t, normals). Exit status 2 on any user error.")
     p.add_argument("scene", help="scene file: a model (.glb .gltf .obj .ply .stl .off) or a MIT 6.837 scene")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
-    p.add_argument("--size", nargs=2, type=_positive_int, default=(512, 512), metavar=("W", "H"),
-                   help="image width and height in pixels (default: 512 512)")
+    p.add_argument("--size", nargs=2, type=_positive_int, default=None, metavar=("W", "H"),
+                   help="image width and height in pixels (default: 512 512, or 512 on the longer side in the "
+                        "aspect ratio of a glTF camera)")
     p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
                    help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
     p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
@@ -248,8 +249,11 @@ def run_render(argv: list[str]) -> int:
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load
 
-    check_size(a.size[0], a.size[1], a.samples)
+    if a.size is not None:
+        check_size(a.size[0], a.size[1], a.samples)
     scene = load(a.scene, mesh_path=a.mesh_path, camera=a.camera)
+    if a.size is None:
+        a.size = _default_size(scene.camera)
     start = time.perf_counter()
     result = render(scene, a.size[0], a.size[1], options=opts, quiet=a.quiet)
     result.save(a.output, course=a.linear)
@@ -261,6 +265,14 @@ def run_render(argv: list[str]) -> int:
         print(f"durer: wrote {a.output} ({a.size[0]}x{a.size[1]}, {time.perf_counter() - start:.2f} s)",
               file=sys.stderr)
     return 0
+
+
+def _default_size(camera, longer: int = 512) -> tuple[int, int]:
+    """512 x 512, or 512 on the longer side in the aspect ratio a glTF camera asks for (io/gltf_extras.py)."""
+    aspect = getattr(camera, "aspect_ratio", None)
+    if not aspect:
+        return longer, longer
+    return (longer, max(1, round(longer / aspect))) if aspect >= 1 else (max(1, round(longer * aspect)), longer)
 
 
 COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser)}

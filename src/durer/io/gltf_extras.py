@@ -7,6 +7,8 @@ Cameras (glTF looks down its node's -Z with +Y up):
   perspective  -> PerspectiveCamera; durer's angle spans the image's longer side, so with an `aspectRatio` a >= 1
                   it is 2 atan(a tan(yfov / 2)) (yfov spans the height of an image of that shape), else yfov.
   orthographic -> OrthographicCamera of size 2 max(xmag, ymag) (the longer side).
+Each keeps the file's aspect ratio (xmag / ymag, or aspectRatio) as `aspect_ratio`: `durer render` without --size
+renders 512 pixels on the longer side in that shape.
 Lights (glTF's BRDF carries the 1/pi that durer's Phong leaves out, so colours are color * intensity / pi: a white
 surface facing a directional light of intensity pi lux renders white):
   directional -> DirectionalLight along the node's -Z; point -> PointLight with inverse-square falloff;
@@ -119,12 +121,15 @@ def read_cameras(gltf: dict, path: str) -> list[GltfCamera]:
             if d.get("type") == "orthographic":
                 o = d["orthographic"]
                 cam = OrthographicCamera(center, direction, up, 2.0 * max(float(o["xmag"]), float(o["ymag"])))
+                cam.aspect_ratio = float(o["xmag"]) / float(o["ymag"])
             else:
                 p = d["perspective"]
                 yfov = float(p["yfov"])
                 aspect = float(p.get("aspectRatio", 1.0))
                 angle = 2.0 * np.arctan(aspect * np.tan(yfov / 2.0)) if aspect >= 1 else yfov
                 cam = PerspectiveCamera(center, direction, up, np.degrees(angle))
+                if "aspectRatio" in p:
+                    cam.aspect_ratio = aspect
         except (KeyError, TypeError, ValueError) as e:
             raise SceneError(f"camera {c} ({name!r}) is malformed: {e}", path) from None
         out.append(GltfCamera(c, name, cam))
