@@ -76,3 +76,40 @@ def test_sphere_bounds_of_a_transformed_sphere():
 def test_mesh_face_index_out_of_range_is_a_value_error():
     with pytest.raises(ValueError, match="out of range"):
         TriangleMesh(np.zeros((3, 3)), [[0, 1, 3]])
+
+
+# --- texture coordinates (issue 13) ------------------------------------------------------------------------------
+def _textured_quad_scene(grid=None):
+    import durer
+
+    texels = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 1, 1]]], np.float32)
+    quad = durer.TriangleMesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]],
+                              uvs=[[0, 0], [1, 0], [1, 1], [0, 1]])
+    mirror = np.diag([-1.0, 1.0, 1.0, 1.0])  # x -> -x: the quad appears left of the origin, mirrored
+    scene = durer.Scene(camera=durer.OrthographicCamera((0, 0.5, 5), (0, 0, -1), (0, 1, 0), 2.0),
+                        group=durer.Group([durer.Transform(np.eye(4), quad), durer.Transform(mirror, quad)]),
+                        materials=[durer.PBRMaterial.from_pbr((1, 1, 1), 0.0, 1.0, texture=texels)])
+    return scene, texels
+
+
+def test_uvs_follow_instances_and_mirrors():
+    import durer
+
+    scene, texels = _textured_quad_scene()
+    cs = compile_scene(scene)
+    assert len(cs.instance_mesh) == 2 and cs.has_uv  # one quad stored once, placed twice
+    scene.lights = None
+    for kwargs in ({}, {"grid": (2, 2, 2)}):  # the two-level BVH, and the grid over the flattened triangles
+        r = durer.render(scene, 4, 2, **kwargs)
+        # right half: the quad as is (texel columns left to right); left half: mirrored (right to left)
+        assert np.allclose(r.color[0, 2], texels[0, 0]) and np.allclose(r.color[0, 3], texels[0, 1])
+        assert np.allclose(r.color[1, 1], texels[1, 0]) and np.allclose(r.color[1, 0], texels[1, 1])
+
+
+def test_scenes_without_uvs_carry_no_uv_arrays():
+    import durer
+
+    mesh = durer.TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    cs = compile_scene(durer.Scene(camera=None, group=durer.Group([mesh])))
+    assert not cs.has_uv and cs.triangle_uv.shape == (0, 3, 2)
+    assert np.array_equal(cs.uv_at([0], np.zeros((1, 3))), np.zeros((1, 2)))
