@@ -40,3 +40,12 @@ def test_notebook_runs_and_shows_images(monkeypatch):
     text = "".join(o.get("text", "") for o in code[1].outputs)
     assert text.startswith("<RenderResult 240x180: ")
     assert "(180, 240, 3)" in code[1].outputs[-1].data["text/plain"]
+
+
+def test_example_models_are_what_the_script_makes():
+    import json
+
+    import make_examples  # tools/, on the path through conftest
+
+    for name, make in make_examples.MODELS.items():
+        assert json.loads((REPO / "examples" / name).read_text()) == json.loads(json.dumps(make())), name

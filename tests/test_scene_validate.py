@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import durer
@@ -49,3 +50,18 @@ def test_durer_lists_and_reaches_every_public_name():
         assert getattr(durer, name) is not None
     assert "RaycastingScene" in names and "transforms" in names
     assert callable(durer.transforms.translate) and durer.RaycastingScene.__name__ == "RaycastingScene"
+
+
+@pytest.mark.parametrize(("make", "message"), [
+    (lambda: durer.PhongMaterial(diffuse_color="red"), r"PhongMaterial diffuse_color must be three numbers"),
+    (lambda: durer.PhongMaterial(exponent="shiny"), r"PhongMaterial exponent must be a number, got 'shiny'"),
+    (lambda: durer.PhongMaterial(specular_color=(1, 1, np.nan)), r"PhongMaterial specular_color must be finite"),
+    (lambda: durer.DirectionalLight(direction=(0, 1)), r"DirectionalLight direction must be three numbers"),
+    (lambda: durer.PointLight(position=(0, 0, 0), color="white"), r"PointLight color must be three numbers"),
+    (lambda: durer.TriangleMesh(np.zeros((4, 2)), [[0, 1, 2]]), r"mesh vertices must be a \(V, 3\) array"),
+    (lambda: durer.TriangleMesh(np.zeros((4, 3)), [0, 1, 2, 3]), r"mesh faces must be an \(F, 3\) array"),
+    (lambda: durer.Transform(np.eye(3), durer.Sphere((0, 0, 0), 1)), r"transform matrix must be 4x4 numbers"),
+])
+def test_wrong_values_name_the_field(make, message):
+    with pytest.raises(ValueError, match=message):
+        make()

@@ -8,6 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 
+def _three(v, what: str) -> np.ndarray:
+    """Three float64 numbers, or a ValueError naming the field (finiteness is checked by each light)."""
+    try:
+        return np.asarray(v, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be three numbers, got {v!r}") from None
+
+
 @dataclass
 class DirectionalLight:
     """Light arriving everywhere along `direction` (the direction it travels, not towards the light)."""
@@ -16,8 +24,8 @@ class DirectionalLight:
     color: np.ndarray = (1.0, 1.0, 1.0)
 
     def __post_init__(self):
-        self.direction = np.asarray(self.direction, dtype=np.float64).reshape(3)
-        self.color = np.asarray(self.color, dtype=np.float64).reshape(3)
+        self.direction = _three(self.direction, "DirectionalLight direction")
+        self.color = _three(self.color, "DirectionalLight color")
         n = np.linalg.norm(self.direction)
         if not (np.isfinite(self.direction).all() and np.isfinite(self.color).all()):
             raise ValueError("light direction and colour must be finite")
@@ -35,9 +43,9 @@ class PointLight:
     attenuation: tuple[float, float, float] = (1.0, 0.0, 0.0)
 
     def __post_init__(self):
-        self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
-        self.color = np.asarray(self.color, dtype=np.float64).reshape(3)
-        self.attenuation = tuple(float(a) for a in self.attenuation)
+        self.position = _three(self.position, "PointLight position")
+        self.color = _three(self.color, "PointLight color")
+        self.attenuation = tuple(_three(self.attenuation, "PointLight attenuation").tolist())
         if not (np.isfinite(self.position).all() and np.isfinite(self.color).all()
                 and np.isfinite(self.attenuation).all()):
             raise ValueError("light position, colour and attenuation must be finite")

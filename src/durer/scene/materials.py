@@ -7,8 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 
 
-def _rgb(v) -> np.ndarray:
-    return np.asarray(v, dtype=np.float64).reshape(3)
+def _rgb(v, what: str = "colour") -> np.ndarray:
+    """A finite float64 RGB triple, or a ValueError naming the field."""
+    try:
+        a = np.asarray(v, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be three numbers (r, g, b), got {v!r}") from None
+    if not np.isfinite(a).all():
+        raise ValueError(f"{what} must be finite, got {a.tolist()}")
+    return a
 
 
 @dataclass
@@ -26,12 +33,14 @@ class PhongMaterial:
     index_of_refraction: float = 1.0
 
     def __post_init__(self):
-        self.diffuse_color = _rgb(self.diffuse_color)
-        self.specular_color = _rgb(self.specular_color)
-        self.reflective_color = _rgb(self.reflective_color)
-        self.transparent_color = _rgb(self.transparent_color)
-        self.exponent = float(self.exponent)
-        self.index_of_refraction = float(self.index_of_refraction)
+        kind = type(self).__name__
+        for name in ("diffuse_color", "specular_color", "reflective_color", "transparent_color"):
+            setattr(self, name, _rgb(getattr(self, name), f"{kind} {name}"))
+        for name in ("exponent", "index_of_refraction"):
+            try:
+                setattr(self, name, float(getattr(self, name)))
+            except (TypeError, ValueError):
+                raise ValueError(f"{kind} {name} must be a number, got {getattr(self, name)!r}") from None
 
 
 Material = PhongMaterial
@@ -62,8 +71,8 @@ class PBRMaterial(PhongMaterial):
 
     def __post_init__(self):
         super().__post_init__()
-        self.base_color = _rgb(self.base_color)
-        self.emission = _rgb(self.emission)
+        self.base_color = _rgb(self.base_color, f"material {self.name!r} base_color")
+        self.emission = _rgb(self.emission, f"material {self.name!r} emission")
         self.metallic, self.roughness = float(self.metallic), float(self.roughness)
         if not (0 <= self.metallic <= 1 and 0 <= self.roughness <= 1):
             raise ValueError(f"material {self.name!r}: metallic and roughness must be in [0, 1], got "

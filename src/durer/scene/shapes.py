@@ -76,8 +76,17 @@ class TriangleMesh:
     uvs: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self):
-        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
-        self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
+        try:
+            self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
+            self.faces = np.ascontiguousarray(self.faces, dtype=np.int64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"mesh vertices must be numbers and faces integers: {e}") from None
+        if self.vertices.ndim != 2 or self.vertices.shape[1] != 3:
+            raise ValueError(f"mesh vertices must be a (V, 3) array, got shape {self.vertices.shape}")
+        if self.faces.size == 0:
+            self.faces = self.faces.reshape(0, 3)
+        if self.faces.ndim != 2 or self.faces.shape[1] != 3:
+            raise ValueError(f"mesh faces must be an (F, 3) array of vertex indices, got shape {self.faces.shape}")
         if not np.isfinite(self.vertices).all():
             raise ValueError("mesh vertices must be finite (found NaN or infinity)")
         if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= len(self.vertices)):
