@@ -293,3 +293,12 @@ def test_example_models_have_cameras_and_lights():
         assert gltf["cameras"] and gltf["extensions"]["KHR_lights_punctual"]["lights"]
         scene = durer.load(path)
         assert not hasattr(scene.camera, "frame")  # the file's own camera, not a framed one
+
+
+def test_binary_file_of_unknown_type_is_named_not_quoted(tmp_path):
+    bad = tmp_path / "model.fbx"
+    bad.write_bytes(b"Kaydara FBX Binary  \x00\x1a\x00\xe8\x1c\x00\x00" + bytes(range(256)))
+    with pytest.raises(SceneError) as e:
+        durer.load(bad)
+    assert str(e.value) == (f"{bad}: not a MIT 6.837 scene file (binary data); model files durer reads end in "
+                            ".glb .gltf .obj .off .ply .stl")
