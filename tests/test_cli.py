@@ -83,7 +83,6 @@ BAD_FLAGS = [
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bogus"],
     ["raycast", "-input", "SCENE", "-size", "10", "10"],                            # nothing to write
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.jpeg"],      # unknown format
-    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "nodir/x.tga"],  # missing folder
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-depth", "1", "x", "d.tga"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bounces", "-1"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-visualize_grid"],
@@ -196,19 +195,20 @@ def test_huge_size_is_one_line_before_anything(scene, tmp_path, capsys):
     assert not out.exists()
 
 
-def _two_line_error(err: str) -> str:
-    usage, message = err.rstrip("\n").split("\n")
-    assert usage.startswith("usage: durer render ")
-    return message
-
-
-def test_folder_in_the_way_is_found_before_rendering(scene, tmp_path, capsys, monkeypatch):
+@pytest.mark.parametrize("command", ["render", "raycast"])
+def test_missing_folder_and_folder_in_the_way_are_found_before_rendering(command, scene, tmp_path, capsys,
+                                                                         monkeypatch):
     from durer.rendering import renderer
 
     monkeypatch.setattr(renderer, "render", lambda *a, **k: pytest.fail("rendered before checking the output"))
     (tmp_path / "o.png").mkdir()
-    code, _, err = run(["render", str(scene), "-o", str(tmp_path / "o.png")], capsys)
-    assert code == 2 and _two_line_error(err) == f"durer render: error: cannot write '{tmp_path / 'o.png'}': it is a folder"
+    for out, reason in ((tmp_path / "o.png", "it is a folder"),
+                        (tmp_path / "nodir" / "x.png", f"folder '{tmp_path / 'nodir'}' does not exist")):
+        argv = (["render", str(scene), "-o", str(out)] if command == "render"
+                else ["raycast", "-input", str(scene), "-size", "4", "4", "-output", str(out)])
+        code, _, err = run(argv, capsys)
+        assert code == 2 and err == f"durer: cannot write '{out}': {reason}\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o.png", "scene.txt"]
 
 
 @pytest.mark.skipif(not hasattr(__import__("os"), "geteuid") or __import__("os").geteuid() == 0,
@@ -221,7 +221,7 @@ def test_read_only_folder_is_found_before_rendering(scene, tmp_path, capsys):
         code, _, err = run(["render", str(scene), "-o", str(folder / "o.png")], capsys)
     finally:
         folder.chmod(0o755)
-    assert code == 2 and "no permission to write in folder" in _two_line_error(err)
+    assert code == 2 and err == f"durer: cannot write '{folder / 'o.png'}': no permission to write in folder '{folder}'\n"
     assert list(folder.iterdir()) == []
 
 

@@ -70,18 +70,19 @@ def _umask() -> int:
 
 
 def check_writable(path: str) -> None:
-    """UsageError naming `path` unless an image can be written there: a known extension, an existing folder we
-    may write in, and no folder (or unwritable file) in the way. Called before rendering."""
+    """Raise unless an image can be written at `path`, naming it: UsageError for an unknown extension, and
+    FileNotFoundError (missing folder), IsADirectoryError (a folder in the way) or PermissionError (a folder or
+    file we may not write) with a one-line message. Called before rendering, so nothing is rendered in vain."""
     check_extension(path)
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
-        raise UsageError(f"cannot write '{path}': folder '{folder}' does not exist")
+        raise FileNotFoundError(f"cannot write '{path}': folder '{folder}' does not exist")
     if os.path.isdir(path):
-        raise UsageError(f"cannot write '{path}': it is a folder")
+        raise IsADirectoryError(f"cannot write '{path}': it is a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f"cannot write '{path}': no permission to write in folder '{folder}'")
+        raise PermissionError(f"cannot write '{path}': no permission to write in folder '{folder}'")
     if os.path.exists(path) and not os.access(path, os.W_OK):
-        raise UsageError(f"cannot write '{path}': the file exists and is read-only")
+        raise PermissionError(f"cannot write '{path}': the file exists and is read-only")
 
 
 def write_atomic(path: str, write) -> None:
