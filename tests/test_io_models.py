@@ -302,3 +302,21 @@ def test_binary_file_of_unknown_type_is_named_not_quoted(tmp_path):
         durer.load(bad)
     assert str(e.value) == (f"{bad}: not a MIT 6.837 scene file (binary data); model files durer reads end in "
                             ".glb .gltf .obj .off .ply .stl")
+
+
+def test_vertex_normals_only_when_the_file_has_them(tmp_path):
+    ball = trimesh.creation.icosphere(subdivisions=1)
+    with_normals = tmp_path / "smooth.glb"
+    scene = trimesh.Scene()
+    scene.add_geometry(ball)
+    with_normals.write_bytes(trimesh.exchange.gltf.export_glb(scene, include_normals=True))
+    (mesh,) = durer.load(with_normals).group.objects
+    assert np.allclose(mesh.normals, ball.vertices / np.linalg.norm(ball.vertices, axis=1, keepdims=True), atol=1e-6)
+    box = trimesh.creation.box()
+    (flat,) = durer.load(_exported(tmp_path, "box.glb", box)).group.objects
+    assert flat.normals is None  # glTF without NORMAL: flat shading, as the specification asks
+    r = durer.render(durer.load(with_normals), 32, 32)
+    hit = np.isfinite(r.depth)
+    # smooth: neighbouring lit pixels differ little (a faceted ball jumps at every edge)
+    jumps = np.abs(np.diff(r.color[:, :, 0], axis=1))[hit[:, 1:] & hit[:, :-1]]
+    assert jumps.max() < 0.12

@@ -4,8 +4,9 @@ licence question), and optionally render them for the README's gallery.
     python tools/make_examples.py            # writes examples/*.gltf
     python tools/make_examples.py --render   # and docs/images/models/*.png (small, for the README)
 
-trimesh builds and exports the meshes and materials (buffers embedded as base64, one file each); the cameras and
-KHR_lights_punctual lights, which trimesh's exporter does not write, are added to the JSON here.
+trimesh builds and exports the meshes and materials (buffers embedded as base64, one file each; vertex normals only
+for the smooth sphere, so boxes and cones stay flat); the cameras and KHR_lights_punctual lights, which trimesh's
+exporter does not write, are added to the JSON here.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ def _gltf(scene: trimesh.Scene, cameras: list[dict], lights: list[dict]) -> dict
 
     cameras: {"name", "eye", "target", and "yfov" (degrees) or "ymag"}; lights: {"name", "type", "color",
     "intensity", "eye", "target", optional "inner"/"outer" (degrees) for spots}."""
-    files = trimesh.exchange.gltf.export_gltf(scene, embed_buffers=True, include_normals=False)
+    files = trimesh.exchange.gltf.export_gltf(scene, embed_buffers=True)  # normals only where computed
     gltf = json.loads(files["model.gltf"])
     gltf.pop("cameras", None)  # trimesh writes its default camera; ours replace it
     for n in gltf["nodes"]:
@@ -108,6 +109,7 @@ def still_life() -> dict:
     s.add_geometry(_with(slab, _material((1, 1, 1), 0.0, 0.9, texture=_checker(), name="slab"), uv),
                    node_name="slab", transform=trimesh.transformations.translation_matrix((0, -0.1, 0)))
     sphere = trimesh.creation.icosphere(subdivisions=2, radius=0.6)
+    assert sphere.vertex_normals.shape == sphere.vertices.shape  # computed now, so exported: shaded smooth
     s.add_geometry(_with(sphere, _material((0.95, 0.64, 0.54), 1.0, 0.35, name="copper")), node_name="sphere",
                    transform=trimesh.transformations.translation_matrix((-0.9, 0.6, 0.2)))
     box = trimesh.creation.box(extents=(0.8, 0.8, 0.8))

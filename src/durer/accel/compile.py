@@ -44,41 +44,74 @@ class CompiledScene:
     instance_mesh: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))      # (K,)
     instance_matrix: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))      # (K, 4, 4)
     instance_material: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))  # (K,)
-    # Texture coordinates, only when some mesh has them (else empty): (F, 3, 2) for `triangles`, and one (Fi, 3, 2)
-    # per stored mesh, in the same vertex order as the triangles (zeros for meshes without UVs).
+    # Per-corner attributes, only when some mesh has them (else empty), in the placed triangles' vertex order:
+    # texture coordinates (F, 3, 2) for `triangles` and (Fi, 3, 2) per stored mesh (zeros for meshes without UVs);
+    # shading normals (F, 3, 3) world space for `triangles`, (Fi, 3, 3) object space per stored mesh (zeros for
+    # meshes without normals: they shade with the geometric normal).
     triangle_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2)))
     mesh_uv: tuple = ()
+    triangle_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    mesh_normals: tuple = ()
 
     @property
     def has_uv(self) -> bool:
         return len(self.triangle_uv) > 0 or len(self.mesh_uv) > 0
 
+    @property
+    def has_normals(self) -> bool:
+        return len(self.triangle_normals) > 0 or len(self.mesh_normals) > 0
+
+    def _barycentric(self, ids: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(n, 3) barycentric weights of world `points` on virtual triangles `ids` (placed vertex order)."""
+        tri = self.triangle(ids)
+        e1, e2, p = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0], points - tri[:, 0]
+        d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+        p1, p2 = (p * e1).sum(1), (p * e2).sum(1)
+        det = d11 * d22 - d12 * d12
+        det = np.where(np.abs(det) > 0, det, 1.0)
+        b1, b2 = (d22 * p1 - d12 * p2) / det, (d11 * p2 - d12 * p1) / det
+        return np.stack([1 - b1 - b2, b1, b2], axis=1)
+
+    def _corners(self, ids: np.ndarray, flat_values: np.ndarray, mesh_values: tuple, normals: bool) -> np.ndarray:
+        """(n, 3, k) corner values of virtual triangles `ids`, in world space for normals."""
+        k = flat_values.shape[2]
+        out = np.zeros((len(ids), 3, k))
+        flat = ids < len(self.triangles)
+        if len(flat_values):
+            out[flat] = flat_values[ids[flat]]
+        if not flat.all():
+            off = self.instance_offset
+            inst_of = np.searchsorted(off, ids, side="right") - 1
+            for inst in np.unique(inst_of[~flat]):
+                sel = inst_of == inst
+                m = self.instance_matrix[inst][:3, :3]
+                v = mesh_values[int(self.instance_mesh[inst])][ids[sel] - off[inst]]
+                if normals:
+                    v = v @ np.linalg.inv(m)  # rows times inv(M) = inverse transpose applied to each normal
+                out[sel] = v[:, [0, 2, 1]] if np.linalg.det(m) < 0 else v
+        return out
+
     def uv_at(self, ids, points: np.ndarray) -> np.ndarray:
         """Texture coordinates (n, 2) at world `points` on virtual triangles `ids` (barycentric interpolation of the
         corners' UVs; zeros if the scene has none)."""
         ids = np.asarray(ids, dtype=np.int64)
-        out = np.zeros((len(ids), 2))
         if not self.has_uv or not len(ids):
-            return out
-        tri = self.triangle(ids)
-        corner_uv = np.zeros((len(ids), 3, 2))
-        f = len(self.triangles)
-        flat = ids < f
-        if len(self.triangle_uv):
-            corner_uv[flat] = self.triangle_uv[ids[flat]]
-        if not flat.all():
-            off = self.instance_offset
-            k = np.searchsorted(off, ids, side="right") - 1
-            for inst in np.unique(k[~flat]):
-                sel = k == inst
-                uv = self.mesh_uv[int(self.instance_mesh[inst])][ids[sel] - off[inst]]
-                corner_uv[sel] = uv[:, [0, 2, 1]] if np.linalg.det(self.instance_matrix[inst][:3, :3]) < 0 else uv
-        e1, e2, p = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0], points - tri[:, 0]
-        d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
-        p1, p2 = (p * e1).sum(1), (p * e2).sum(1)
-        det = np.where(np.abs(d11 * d22 - d12 * d12) > 0, d11 * d22 - d12 * d12, 1.0)
-        b1, b2 = (d22 * p1 - d12 * p2) / det, (d11 * p2 - d12 * p1) / det
-        return (1 - b1 - b2)[:, None] * corner_uv[:, 0] + b1[:, None] * corner_uv[:, 1] + b2[:, None] * corner_uv[:, 2]
+            return np.zeros((len(ids), 2))
+        corners = self._corners(ids, self.triangle_uv, self.mesh_uv, normals=False)
+        return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+
+    def normals_at(self, ids, points: np.ndarray) -> np.ndarray:
+        """Interpolated world shading normals (n, 3) at `points` on triangles `ids`, unit length; zero rows where
+        the mesh has no normals (or they cancel), so the caller keeps the geometric normal there."""
+        ids = np.asarray(ids, dtype=np.int64)
+        if not self.has_normals or not len(ids):
+            return np.zeros((len(ids), 3))
+        corners = self._corners(ids, self.triangle_normals, self.mesh_normals, normals=True)
+        length = np.linalg.norm(corners, axis=2, keepdims=True)
+        corners = np.divide(corners, length, out=np.zeros_like(corners), where=length > 0)
+        n = np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.divide(n, length, out=np.zeros_like(n), where=length > 1e-12)
 
     @property
     def instance_offset(self) -> np.ndarray:
@@ -134,17 +167,23 @@ class CompiledScene:
         if not len(self.instance_mesh):
             return self
         tris = [self.triangles] + [self.instance_triangles(k) for k in range(len(self.instance_mesh))]
-        uv = self.triangle_uv
+        uv, normals = self.triangle_uv, self.triangle_normals
         if self.has_uv:
             uv = np.concatenate([self.triangle_uv.reshape(-1, 3, 2)] + [
-                self.mesh_uv[m][:, [0, 2, 1]] if np.linalg.det(self.instance_matrix[k][:3, :3]) < 0 else self.mesh_uv[m]
+                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])), self.triangle_uv,
+                              self.mesh_uv, normals=False) for k, m in enumerate(self.instance_mesh)])
+        if self.has_normals:
+            normals = np.concatenate([self.triangle_normals.reshape(-1, 3, 3)] + [
+                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])),
+                              self.triangle_normals, self.mesh_normals, normals=True)
                 for k, m in enumerate(self.instance_mesh)])
         mats = [self.triangle_material] + [np.full(len(self.mesh_triangles[m]), mat, np.int32)
                                           for m, mat in zip(self.instance_mesh, self.instance_material, strict=True)]
         return replace(self, triangles=np.ascontiguousarray(np.concatenate(tris)),
                        triangle_material=np.concatenate(mats), mesh_triangles=(),
                        instance_mesh=np.zeros(0, np.int32), instance_matrix=np.zeros((0, 4, 4)),
-                       instance_material=np.zeros(0, np.int32), triangle_uv=uv, mesh_uv=())
+                       instance_material=np.zeros(0, np.int32), triangle_uv=uv, mesh_uv=(),
+                       triangle_normals=normals, mesh_normals=())
 
     @property
     def nbytes(self) -> int:
@@ -249,6 +288,7 @@ def compile_scene(scene: Scene) -> CompiledScene:
     planes: list[tuple] = []
     uses: dict = {}
     uvs: list[np.ndarray] = []  # per entry of tris: (n, 3, 2) corner UVs (zeros without)
+    nrm: list[np.ndarray] = []  # per entry of tris: (n, 3, 3) world corner normals (zeros without)
 
     def count(obj) -> None:
         if isinstance(obj, Group):
@@ -261,10 +301,12 @@ def compile_scene(scene: Scene) -> CompiledScene:
             uses[key] = uses.get(key, 0) + 1
 
     count(scene.group)
-    any_uv = _any_uv(scene.group)  # UV arrays only when some mesh has UVs (they cost 48 bytes a triangle)
+    any_uv = _any(scene.group, "uvs")  # UV arrays only when some mesh has UVs (they cost 48 bytes a triangle)
+    any_normals = _any(scene.group, "normals")  # normals only when some mesh has them (72 bytes a triangle)
     mesh_index: dict = {}
     meshes: list[np.ndarray] = []
     mesh_uvs: list[np.ndarray] = []
+    mesh_nrm: list[np.ndarray] = []
     instances: list[tuple] = []
 
     def visit(obj, m: np.ndarray) -> None:
@@ -290,16 +332,23 @@ def compile_scene(scene: Scene) -> CompiledScene:
                 mesh_index[key] = len(meshes)
                 meshes.append(np.ascontiguousarray(obj.vertices[obj.faces]))
                 if any_uv:
-                    mesh_uvs.append(_corner_uv(obj))
+                    mesh_uvs.append(_corner_values(obj, "uvs", 2))
+                if any_normals:
+                    mesh_nrm.append(_corner_values(obj, "normals", 3))
             instances.append((mesh_index[key], m, obj.material))
         elif isinstance(obj, (Triangle, TriangleMesh)):
             if isinstance(obj, Triangle):
                 v = np.array([[obj.vertex0, obj.vertex1, obj.vertex2]])
             else:
                 v = obj.vertices[obj.faces]
-            if any_uv:  # corner UVs in the placed triangle's vertex order (a mirror swaps v1 and v2)
-                uv = _corner_uv(obj) if isinstance(obj, TriangleMesh) else np.zeros((1, 3, 2))
-                uvs.append(uv[:, [0, 2, 1]] if np.linalg.det(m[:3, :3]) < 0 else uv)
+            mirror = np.linalg.det(m[:3, :3]) < 0  # corner values follow the placed vertex order (v1, v2 swap)
+            if any_uv:
+                uv = _corner_values(obj, "uvs", 2) if isinstance(obj, TriangleMesh) else np.zeros((1, 3, 2))
+                uvs.append(uv[:, [0, 2, 1]] if mirror else uv)
+            if any_normals:
+                nc = _corner_values(obj, "normals", 3) if isinstance(obj, TriangleMesh) else np.zeros((1, 3, 3))
+                nc = nc @ np.linalg.inv(m[:3, :3])  # the inverse transpose, applied to row vectors
+                nrm.append(nc[:, [0, 2, 1]] if mirror else nc)
             v = _place(v, m)  # a mirror flips the winding; _place keeps the inverse-transpose normal
             tris.append(v)
             tri_mat.append(np.full(len(v), obj.material, dtype=np.int32))
@@ -324,23 +373,26 @@ def compile_scene(scene: Scene) -> CompiledScene:
         instance_material=np.array([i[2] for i in instances], dtype=np.int32),
         triangle_uv=np.concatenate(uvs) if any_uv and uvs else np.zeros((0, 3, 2)),
         mesh_uv=tuple(mesh_uvs) if any_uv else (),
+        triangle_normals=np.concatenate(nrm) if any_normals and nrm else np.zeros((0, 3, 3)),
+        mesh_normals=tuple(mesh_nrm) if any_normals else (),
     )
 
 
-def _corner_uv(mesh: TriangleMesh) -> np.ndarray:
-    """(F, 3, 2) UVs of each face's corners (zeros for a mesh without UVs)."""
-    if mesh.uvs is None:
-        return np.zeros((len(mesh.faces), 3, 2))
-    return np.ascontiguousarray(mesh.uvs[mesh.faces])
+def _corner_values(mesh: TriangleMesh, name: str, k: int) -> np.ndarray:
+    """(F, 3, k) per-vertex values `name` (uvs, normals) at each face's corners; zeros if the mesh has none."""
+    values = getattr(mesh, name)
+    if values is None:
+        return np.zeros((len(mesh.faces), 3, k))
+    return np.ascontiguousarray(values[mesh.faces])
 
 
-def _any_uv(obj) -> bool:
-    """Does any mesh below `obj` carry texture coordinates?"""
+def _any(obj, name: str) -> bool:
+    """Does any mesh below `obj` carry per-vertex `name` (uvs, normals)?"""
     if isinstance(obj, Group):
-        return any(_any_uv(child) for child in obj.objects)
+        return any(_any(child, name) for child in obj.objects)
     if isinstance(obj, Transform):
-        return _any_uv(obj.object)
-    return isinstance(obj, TriangleMesh) and obj.uvs is not None
+        return _any(obj.object, name)
+    return isinstance(obj, TriangleMesh) and getattr(obj, name) is not None
 
 
 def spheres_under_transform(scene: Scene) -> np.ndarray:

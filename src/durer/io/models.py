@@ -2,7 +2,8 @@
 
 trimesh reads the meshes, the scene graph's node transforms and the materials; gltf_extras.py reads what trimesh
 does not (every glTF camera, KHR_lights_punctual lights). Each geometry becomes one TriangleMesh (with its UVs when
-it has a texture), placed by a Transform per node that uses it, so a mesh used by several nodes is stored once.
+it has a texture, and with the file's vertex normals for smooth shading when it gives them), placed by a Transform
+per node that uses it, so a mesh used by several nodes is stored once.
 
 Materials (scene/materials.py PBRMaterial documents how they are shaded):
   glTF metallic-roughness -> PBRMaterial.from_pbr(baseColorFactor, metallicFactor, roughnessFactor, emissiveFactor,
@@ -85,6 +86,16 @@ def _material(geom, gltf: bool) -> PBRMaterial:
     return PBRMaterial.from_pbr(DEFAULT_GREY, 0.0, 0.6)
 
 
+def _file_normals(geom) -> np.ndarray | None:
+    """The vertex normals the file gave (glTF NORMAL, OBJ vn, PLY nx ny nz), or None: trimesh would otherwise
+    compute smooth ones from shared vertices, rounding off every box (glTF asks for flat shading then)."""
+    cache = getattr(getattr(geom, "_cache", None), "cache", {})
+    if "vertex_normals" not in cache:
+        return None
+    normals = np.asarray(geom.vertex_normals, dtype=np.float64)
+    return normals if normals.shape == geom.vertices.shape and np.isfinite(normals).all() else None
+
+
 def load_model(path: str | os.PathLike, mesh_path: list[str] | None = None, camera: str | int | None = None) -> Scene:
     """Read a model file into a Scene (see the module docstring); `camera` picks a glTF camera by name or index
     (the first by default). Raises SceneError naming the file on a mistake. `mesh_path` is unused (models carry
@@ -111,7 +122,8 @@ def load_model(path: str | os.PathLike, mesh_path: list[str] | None = None, came
             materials.append(_material(geom, is_gltf))
             tex = materials[-1].texture is not None
             meshes[name] = TriangleMesh(np.asarray(geom.vertices), np.asarray(geom.faces), len(materials) - 1,
-                                        source=f"{path}#{name}", uvs=np.asarray(geom.visual.uv) if tex else None)
+                                        source=f"{path}#{name}", uvs=np.asarray(geom.visual.uv) if tex else None,
+                                        normals=_file_normals(geom))
         mesh = meshes[name]
         world = mesh.vertices @ matrix[:3, :3].T + matrix[:3, 3]
         lo, hi = np.minimum(lo, world.min(axis=0)), np.maximum(hi, world.max(axis=0))

@@ -57,11 +57,37 @@ class SampleResult:
 
 
 def surface(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, hits: Hits):
-    """Hit points, geometric normals and material ids of the hits (rows where hits.hit)."""
+    """Hit points, normals and material ids of the hits (rows where hits.hit). The normals are geometric, or
+    interpolated from the vertex normals of meshes that have them (smooth_normals)."""
     t = np.where(hits.hit, hits.t, 0.0)
     points = origins + t[:, None] * directions
     normals = geometric_normals(ctx.compiled, hits, points)
+    if ctx.compiled.has_normals:
+        normals = smooth_normals(ctx.compiled, hits, points, directions, normals)
     return points, normals, hit_materials(ctx.compiled, hits)
+
+
+def smooth_normals(cs: CompiledScene, hits: Hits, points, directions, geometric: np.ndarray) -> np.ndarray:
+    """Shading normals: the interpolated vertex normals where a mesh has them, turned to the geometric normal's
+    side, and bent just enough that the ray meets them from the same side as the surface itself (else a smooth
+    normal near a silhouette would make a front face look like a back face)."""
+    m = hits.kind == TRIANGLE
+    if not m.any():
+        return geometric
+    g = geometric[m]
+    n = cs.normals_at(hits.prim[m], points[m])
+    have = np.linalg.norm(n, axis=1) > 0
+    n = np.where(have[:, None], n, g)
+    n *= np.where(np.einsum("ij,ij->i", n, g) < 0, -1.0, 1.0)[:, None]
+    d = directions[m] / np.linalg.norm(directions[m], axis=1, keepdims=True)
+    dn, dg = np.einsum("ij,ij->i", d, n), np.einsum("ij,ij->i", d, g)
+    flip = np.sign(dn) != np.sign(dg)
+    if flip.any():
+        n[flip] -= 1.01 * dn[flip, None] * d[flip]
+        n[flip] /= np.linalg.norm(n[flip], axis=1, keepdims=True)
+    out = geometric.copy()
+    out[m] = n
+    return out
 
 
 def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float) -> SampleResult:

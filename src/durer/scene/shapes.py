@@ -67,13 +67,15 @@ class Triangle:
 @dataclass
 class TriangleMesh:
     """Indexed triangles: `vertices` (V,3) float, `faces` (F,3) int, 0-based; optional texture coordinates
-    `uvs` (V,2), one per vertex, for image textures (PBRMaterial.texture)."""
+    `uvs` (V,2), one per vertex, for image textures (PBRMaterial.texture), and optional vertex `normals` (V,3),
+    interpolated across each triangle for smooth shading (without them, triangles shade flat)."""
 
     vertices: np.ndarray
     faces: np.ndarray
     material: int = 0
     source: str | None = field(default=None, compare=False)
     uvs: np.ndarray | None = field(default=None, compare=False)
+    normals: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self):
         try:
@@ -99,3 +101,8 @@ class TriangleMesh:
             if self.uvs.shape != (len(self.vertices), 2) or not np.isfinite(self.uvs).all():
                 raise ValueError(f"mesh uvs must be finite, one (u, v) pair per vertex: expected "
                                  f"({len(self.vertices)}, 2), got {self.uvs.shape}")
+        if self.normals is not None:
+            self.normals = np.ascontiguousarray(self.normals, dtype=np.float64)
+            if self.normals.shape != self.vertices.shape or not np.isfinite(self.normals).all():
+                raise ValueError(f"mesh normals must be finite, one per vertex: expected {self.vertices.shape}, "
+                                 f"got {self.normals.shape}")
