@@ -320,3 +320,24 @@ def test_vertex_normals_only_when_the_file_has_them(tmp_path):
     # smooth: neighbouring lit pixels differ little (a faceted ball jumps at every edge)
     jumps = np.abs(np.diff(r.color[:, :, 0], axis=1))[hit[:, 1:] & hit[:, :-1]]
     assert jumps.max() < 0.12
+
+
+@pytest.mark.parametrize(("damage", "message"), [
+    (lambda g: g.update(extensions={"KHR_lights_punctual": []}),      # a list where an object belongs
+     "malformed glTF (AttributeError: 'list' object has no attribute 'get')"),
+    (lambda g: g["nodes"][4]["extensions"]["KHR_lights_punctual"].update(light=7), None),  # no such light: skipped
+    (lambda g: g["scenes"][0].update(nodes=[0, 1, 99]), "cannot read model: IndexError"),  # trimesh refuses it
+    (lambda g: g["cameras"][0].pop("perspective"), "camera 0 ('Front') is malformed: 'perspective'"),
+    (lambda g: g["nodes"][1].update(rotation=[0, 0, 1]), "cannot read model: ValueError"),  # three numbers
+])
+def test_malformed_gltf_json_is_one_line_naming_the_file(tmp_path, damage, message):
+    gltf, data = hand_written_gltf()
+    damage(gltf)
+    path = tmp_path / "bad.gltf"
+    write_gltf(path, gltf, data)
+    if message is None:
+        assert len(durer.load(path).lights) == 2
+        return
+    with pytest.raises(SceneError) as e:
+        durer.load(path)
+    assert str(e.value).startswith(f"{path}: {message}") and "\n" not in str(e.value)

@@ -135,14 +135,14 @@ def load_model(path: str | os.PathLike, mesh_path: list[str] | None = None, came
     radius = max(float(np.linalg.norm(w - center, axis=1).max()) for w, _ in placed)
 
     gltf = read_gltf_json(path) if is_gltf else {}
-    cameras = read_cameras(gltf, path) if is_gltf else []
+    cameras = _malformed_is_scene_error(read_cameras, gltf, path) if is_gltf else []
     if camera is not None:
         cam = pick_camera(cameras, camera, path)
     elif cameras:
         cam = cameras[0].camera
     else:
         cam = frame_sphere(center, radius)
-    lights = read_lights(gltf, path) if is_gltf else []
+    lights = _malformed_is_scene_error(read_lights, gltf, path) if is_gltf else []
     ambient = FILE_AMBIENT
     if not lights:
         lights, ambient = default_rig(cam), DEFAULT_SKY
@@ -161,7 +161,16 @@ def model_camera(path: str | os.PathLike, which: str | int) -> object:
     path = os.fspath(path)
     if os.path.splitext(path)[1].lower() not in GLTF:
         raise SceneError(f"only glTF files have cameras to choose (asked for camera {which!r})", path)
-    return pick_camera(read_cameras(read_gltf_json(path), path), which, path)
+    return pick_camera(_malformed_is_scene_error(read_cameras, read_gltf_json(path), path), which, path)
+
+
+def _malformed_is_scene_error(read, gltf: dict, path: str):
+    """read(gltf, path), with a glTF whose JSON has the wrong shape (a list for an object, a bad index) reported as
+    a SceneError naming the file rather than a traceback."""
+    try:
+        return read(gltf, path)
+    except (KeyError, TypeError, AttributeError, IndexError, ValueError) as e:
+        raise SceneError(f"malformed glTF ({type(e).__name__}: {e})", path) from None
 
 
 def read_mesh(path: str) -> tuple[np.ndarray, np.ndarray]:
