@@ -341,3 +341,20 @@ def test_malformed_gltf_json_is_one_line_naming_the_file(tmp_path, damage, messa
     with pytest.raises(SceneError) as e:
         durer.load(path)
     assert str(e.value).startswith(f"{path}: {message}") and "\n" not in str(e.value)
+
+
+def test_vertex_colours_are_interpolated(tmp_path):
+    quad = trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], faces=[[0, 1, 2], [0, 2, 3]],
+                           vertex_colors=[[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255], [255, 255, 255, 255]],
+                           process=False)
+    path = _exported(tmp_path, "quad.ply", quad)
+    scene = durer.load(path)
+    (mesh,) = scene.group.objects
+    assert np.allclose(mesh.colors, [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]])  # sRGB 0/255 are linear 0/1
+    scene.camera = durer.OrthographicCamera((0.5, 0.5, 5), (0, 0, -1), (0, 1, 0), 1.0)
+    scene.lights = None  # flat: white material times the interpolated colour
+    r = durer.render(scene, 2, 2)
+    # pixel (row 1, col 0) is the point (0.25, 0.25): on triangle 0-2-3, weights 0.75 v0, 0.25 v2, 0 v3
+    assert np.allclose(r.color[1, 0], [0.75, 0, 0.25])
+    # pixel (row 0, col 1) is (0.75, 0.75) on triangle 0-1-2: weights 0.25 v0, 0 v1, 0.75 v2
+    assert np.allclose(r.color[0, 1], [0.25, 0, 0.75])

@@ -52,10 +52,17 @@ class CompiledScene:
     mesh_uv: tuple = ()
     triangle_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     mesh_normals: tuple = ()
+    # vertex colours (F, 3, 3) / (Fi, 3, 3), linear RGB (ones for meshes without colours)
+    triangle_colors: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    mesh_colors: tuple = ()
 
     @property
     def has_uv(self) -> bool:
         return len(self.triangle_uv) > 0 or len(self.mesh_uv) > 0
+
+    @property
+    def has_colors(self) -> bool:
+        return len(self.triangle_colors) > 0 or len(self.mesh_colors) > 0
 
     @property
     def has_normals(self) -> bool:
@@ -98,6 +105,14 @@ class CompiledScene:
         if not self.has_uv or not len(ids):
             return np.zeros((len(ids), 2))
         corners = self._corners(ids, self.triangle_uv, self.mesh_uv, normals=False)
+        return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+
+    def colors_at(self, ids, points: np.ndarray) -> np.ndarray:
+        """Interpolated vertex colours (n, 3) at world `points` on triangles `ids` (ones if the scene has none)."""
+        ids = np.asarray(ids, dtype=np.int64)
+        if not self.has_colors or not len(ids):
+            return np.ones((len(ids), 3))
+        corners = self._corners(ids, self.triangle_colors, self.mesh_colors, normals=False)
         return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
 
     def normals_at(self, ids, points: np.ndarray) -> np.ndarray:
@@ -172,6 +187,12 @@ class CompiledScene:
             uv = np.concatenate([self.triangle_uv.reshape(-1, 3, 2)] + [
                 self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])), self.triangle_uv,
                               self.mesh_uv, normals=False) for k, m in enumerate(self.instance_mesh)])
+        colors = self.triangle_colors
+        if self.has_colors:
+            colors = np.concatenate([self.triangle_colors.reshape(-1, 3, 3)] + [
+                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])),
+                              self.triangle_colors, self.mesh_colors, normals=False)
+                for k, m in enumerate(self.instance_mesh)])
         if self.has_normals:
             normals = np.concatenate([self.triangle_normals.reshape(-1, 3, 3)] + [
                 self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])),
@@ -183,7 +204,7 @@ class CompiledScene:
                        triangle_material=np.concatenate(mats), mesh_triangles=(),
                        instance_mesh=np.zeros(0, np.int32), instance_matrix=np.zeros((0, 4, 4)),
                        instance_material=np.zeros(0, np.int32), triangle_uv=uv, mesh_uv=(),
-                       triangle_normals=normals, mesh_normals=())
+                       triangle_normals=normals, mesh_normals=(), triangle_colors=colors, mesh_colors=())
 
     @property
     def nbytes(self) -> int:
@@ -289,6 +310,7 @@ def compile_scene(scene: Scene) -> CompiledScene:
     uses: dict = {}
     uvs: list[np.ndarray] = []  # per entry of tris: (n, 3, 2) corner UVs (zeros without)
     nrm: list[np.ndarray] = []  # per entry of tris: (n, 3, 3) world corner normals (zeros without)
+    col: list[np.ndarray] = []  # per entry of tris: (n, 3, 3) corner colours (ones without)
 
     def count(obj) -> None:
         if isinstance(obj, Group):
@@ -303,10 +325,12 @@ def compile_scene(scene: Scene) -> CompiledScene:
     count(scene.group)
     any_uv = _any(scene.group, "uvs")  # UV arrays only when some mesh has UVs (they cost 48 bytes a triangle)
     any_normals = _any(scene.group, "normals")  # normals only when some mesh has them (72 bytes a triangle)
+    any_colors = _any(scene.group, "colors")
     mesh_index: dict = {}
     meshes: list[np.ndarray] = []
     mesh_uvs: list[np.ndarray] = []
     mesh_nrm: list[np.ndarray] = []
+    mesh_col: list[np.ndarray] = []
     instances: list[tuple] = []
 
     def visit(obj, m: np.ndarray) -> None:
@@ -335,6 +359,8 @@ def compile_scene(scene: Scene) -> CompiledScene:
                     mesh_uvs.append(_corner_values(obj, "uvs", 2))
                 if any_normals:
                     mesh_nrm.append(_corner_values(obj, "normals", 3))
+                if any_colors:
+                    mesh_col.append(_corner_values(obj, "colors", 3, fill=1.0))
             instances.append((mesh_index[key], m, obj.material))
         elif isinstance(obj, (Triangle, TriangleMesh)):
             if isinstance(obj, Triangle):
@@ -349,6 +375,9 @@ def compile_scene(scene: Scene) -> CompiledScene:
                 nc = _corner_values(obj, "normals", 3) if isinstance(obj, TriangleMesh) else np.zeros((1, 3, 3))
                 nc = nc @ np.linalg.inv(m[:3, :3])  # the inverse transpose, applied to row vectors
                 nrm.append(nc[:, [0, 2, 1]] if mirror else nc)
+            if any_colors:
+                cc = _corner_values(obj, "colors", 3, fill=1.0) if isinstance(obj, TriangleMesh) else np.ones((1, 3, 3))
+                col.append(cc[:, [0, 2, 1]] if mirror else cc)
             v = _place(v, m)  # a mirror flips the winding; _place keeps the inverse-transpose normal
             tris.append(v)
             tri_mat.append(np.full(len(v), obj.material, dtype=np.int32))
@@ -375,14 +404,16 @@ def compile_scene(scene: Scene) -> CompiledScene:
         mesh_uv=tuple(mesh_uvs) if any_uv else (),
         triangle_normals=np.concatenate(nrm) if any_normals and nrm else np.zeros((0, 3, 3)),
         mesh_normals=tuple(mesh_nrm) if any_normals else (),
+        triangle_colors=np.concatenate(col) if any_colors and col else np.zeros((0, 3, 3)),
+        mesh_colors=tuple(mesh_col) if any_colors else (),
     )
 
 
-def _corner_values(mesh: TriangleMesh, name: str, k: int) -> np.ndarray:
-    """(F, 3, k) per-vertex values `name` (uvs, normals) at each face's corners; zeros if the mesh has none."""
+def _corner_values(mesh: TriangleMesh, name: str, k: int, fill: float = 0.0) -> np.ndarray:
+    """(F, 3, k) per-vertex values `name` (uvs, normals, colors) at each face's corners; `fill` if it has none."""
     values = getattr(mesh, name)
     if values is None:
-        return np.zeros((len(mesh.faces), 3, k))
+        return np.full((len(mesh.faces), 3, k), fill)
     return np.ascontiguousarray(values[mesh.faces])
 
 

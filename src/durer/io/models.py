@@ -10,7 +10,9 @@ Materials (scene/materials.py PBRMaterial documents how they are shaded):
                              baseColorTexture decoded from sRGB to linear); absent factors take glTF's defaults
                              (metallic 1, roughness 1), as the specification says.
   OBJ/MTL materials       -> trimesh's own conversion to metallic-roughness, then the same.
-  colours per face/vertex -> their most common colour (sRGB, as PLY and OFF files store it), dielectric.
+  colours per vertex      -> interpolated across each triangle (TriangleMesh.colors) on a white dielectric
+                             (sRGB in PLY, OFF and OBJ files; linear in glTF's COLOR_0)
+  colours per face         -> their most common colour, dielectric.
   no colour at all        -> a light grey dielectric.
 A model without a camera gets `frame_sphere` on its bounding sphere (re-framed by the renderer for the image's
 shape); a model without lights gets a default rig (DEFAULT_RIG): a key and a fill light from the camera's side and
@@ -80,10 +82,24 @@ def _material(geom, gltf: bool) -> PBRMaterial:
         emission = np.zeros(3) if mat.emissiveFactor is None else np.asarray(mat.emissiveFactor, float).reshape(3)
         return PBRMaterial.from_pbr(factor[:3], float(np.clip(metallic, 0, 1)), float(np.clip(roughness, 0, 1)),
                                     emission, texture, name=str(getattr(mat, "name", "") or ""))
+    if _vertex_colors(geom, gltf) is not None:
+        return PBRMaterial.from_pbr((1.0, 1.0, 1.0), 0.0, 0.6)  # white, tinted by the colours
     if getattr(visual, "kind", None) in ("face", "vertex"):
         rgb = np.asarray(visual.main_color[:3], dtype=np.float64) / 255.0
         return PBRMaterial.from_pbr(rgb if gltf else srgb_to_linear(rgb), 0.0, 0.6)
     return PBRMaterial.from_pbr(DEFAULT_GREY, 0.0, 0.6)
+
+
+def _vertex_colors(geom, gltf: bool) -> np.ndarray | None:
+    """Linear per-vertex colours (V,3) of a mesh coloured per vertex, unless they are all one colour (then the
+    material carries it). glTF's COLOR_0 is linear already; PLY, OFF and OBJ colours are sRGB."""
+    visual = geom.visual
+    if getattr(visual, "kind", None) != "vertex":
+        return None
+    rgb = np.asarray(visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
+    if len(rgb) != len(geom.vertices) or np.ptp(rgb, axis=0).max() == 0:
+        return None
+    return rgb if gltf else srgb_to_linear(rgb)
 
 
 def _file_normals(geom) -> np.ndarray | None:
@@ -123,7 +139,7 @@ def load_model(path: str | os.PathLike, mesh_path: list[str] | None = None, came
             tex = materials[-1].texture is not None
             meshes[name] = TriangleMesh(np.asarray(geom.vertices), np.asarray(geom.faces), len(materials) - 1,
                                         source=f"{path}#{name}", uvs=np.asarray(geom.visual.uv) if tex else None,
-                                        normals=_file_normals(geom))
+                                        normals=_file_normals(geom), colors=_vertex_colors(geom, is_gltf))
         mesh = meshes[name]
         world = mesh.vertices @ matrix[:3, :3].T + matrix[:3, 3]
         lo, hi = np.minimum(lo, world.min(axis=0)), np.maximum(hi, world.max(axis=0))

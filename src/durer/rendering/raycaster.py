@@ -47,6 +47,17 @@ def hit_uv(ctx: RenderContext, hits: Hits, points: np.ndarray) -> np.ndarray | N
     return uv
 
 
+def hit_tint(ctx: RenderContext, hits: Hits, points: np.ndarray) -> np.ndarray | None:
+    """Interpolated vertex colours (N,3) at the hits (ones elsewhere), or None when no mesh has colours."""
+    if not ctx.compiled.has_colors:
+        return None
+    tint = np.ones((len(points), 3))
+    m = hits.kind == TRIANGLE
+    if m.any():
+        tint[m] = ctx.compiled.colors_at(hits.prim[m], points[m])
+    return tint
+
+
 @dataclass
 class SampleResult:
     """Per-ray results: linear colour (N,3), t of the closest hit (inf on a miss), world normal (N,3)."""
@@ -98,20 +109,21 @@ def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
     color = np.broadcast_to(scene.background_color, (n, 3)).copy()
     points, normals, mat = surface(ctx, origins, directions, hits)
     m = hits.hit
-    uv = hit_uv(ctx, hits, points)
-    uv = None if uv is None else uv[m]
+    uv, tint = hit_uv(ctx, hits, points), hit_tint(ctx, hits, points)
+    uv, tint = (None if a is None else a[m] for a in (uv, tint))
     if scene.lights is None:  # assignment 1: the object's own colour (blended through any solid textures)
         table = MaterialTable.from_materials(scene.materials)
         flat = np.zeros((int(m.sum()), 3))
         for leaf, weight in leaf_weights(scene.materials, mat[m], points[m]):
-            flat += weight[:, None] * diffuse_colors(scene.materials, table.diffuse, leaf, uv)
+            flat += weight[:, None] * diffuse_colors(scene.materials, table.diffuse, leaf, uv, tint)
         color[m] = flat
     elif m.any():
-        color[m] = shade_local(ctx, points[m], normals[m], directions[m], mat[m], uv=uv)
+        color[m] = shade_local(ctx, points[m], normals[m], directions[m], mat[m], uv=uv, tint=tint)
     return SampleResult(color, hits.t, normals)
 
 
-def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visible=None, uv=None) -> np.ndarray:
+def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visible=None, uv=None,
+                tint=None) -> np.ndarray:
     """Ambient + each light's diffuse and specular term at the hits.
 
     A back face (the ray arrives from the side the normal points away from) is flipped and lit when
@@ -119,7 +131,8 @@ def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visi
     `light_visible`, if given, is a list of (N,) masks, one per light (shadow rays).
     Solid textures shade each Phong material they blend and sum the results with the texture's weights
     (the handout's UPDATE 11/2: interpolate the shaded colours, ambient term included).
-    `uv` (N,2), if given, looks up image textures (texturing.diffuse_colors); PBR materials add their emission.
+    `uv` (N,2), if given, looks up image textures and `tint` (N,3), if given, multiplies the diffuse colour
+    (vertex colours; texturing.diffuse_colors); PBR materials add their emission.
     """
     table = ctx.materials
     d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
@@ -128,7 +141,7 @@ def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visi
     lights = [light_directions(light, points) for light in ctx.scene.lights]
     color = np.zeros((len(points), 3))
     for leaf, weight in leaf_weights(ctx.scene.materials, mat, points):
-        kd = diffuse_colors(ctx.scene.materials, table.diffuse, leaf, uv)
+        kd = diffuse_colors(ctx.scene.materials, table.diffuse, leaf, uv, tint)
         ks, e = table.specular[leaf], table.exponent[leaf]
         shaded = ctx.scene.ambient_light * kd
         glow = emission(ctx.scene.materials, leaf)

@@ -125,10 +125,11 @@ def has_image_textures(materials: list) -> bool:
     return any(isinstance(m, PBRMaterial) and m.texture is not None for m in materials)
 
 
-def diffuse_colors(materials: list, diffuse: np.ndarray, leaf: np.ndarray, uv: np.ndarray | None) -> np.ndarray:
-    """Diffuse colour (N,3) of Phong material ids `leaf`: the table's colour, times the image texture at `uv` for
-    PBR materials with one (issue 13: glTF's base colour texture)."""
-    kd = diffuse[leaf]
+def diffuse_colors(materials: list, diffuse: np.ndarray, leaf: np.ndarray, uv: np.ndarray | None,
+                   tint: np.ndarray | None = None) -> np.ndarray:
+    """Diffuse colour (N,3) of Phong material ids `leaf`: the table's colour, times the vertex colours `tint` if
+    given, times the image texture at `uv` for PBR materials with one (issue 13: glTF's base colour texture)."""
+    kd = diffuse[leaf] if tint is None else diffuse[leaf] * tint
     if uv is None:
         return kd
     for i in np.unique(leaf):

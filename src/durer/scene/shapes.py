@@ -68,7 +68,8 @@ class Triangle:
 class TriangleMesh:
     """Indexed triangles: `vertices` (V,3) float, `faces` (F,3) int, 0-based; optional texture coordinates
     `uvs` (V,2), one per vertex, for image textures (PBRMaterial.texture), and optional vertex `normals` (V,3),
-    interpolated across each triangle for smooth shading (without them, triangles shade flat)."""
+    interpolated across each triangle for smooth shading (without them, triangles shade flat), and optional vertex
+    `colors` (V,3), linear RGB, interpolated across each triangle and multiplying the material's diffuse colour."""
 
     vertices: np.ndarray
     faces: np.ndarray
@@ -76,6 +77,7 @@ class TriangleMesh:
     source: str | None = field(default=None, compare=False)
     uvs: np.ndarray | None = field(default=None, compare=False)
     normals: np.ndarray | None = field(default=None, compare=False)
+    colors: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self):
         try:
@@ -106,3 +108,8 @@ class TriangleMesh:
             if self.normals.shape != self.vertices.shape or not np.isfinite(self.normals).all():
                 raise ValueError(f"mesh normals must be finite, one per vertex: expected {self.vertices.shape}, "
                                  f"got {self.normals.shape}")
+        if self.colors is not None:
+            self.colors = np.ascontiguousarray(self.colors, dtype=np.float64)
+            if self.colors.shape != self.vertices.shape or not np.isfinite(self.colors).all():
+                raise ValueError(f"mesh colors must be finite RGB, one per vertex: expected {self.vertices.shape}, "
+                                 f"got {self.colors.shape}")
