@@ -98,22 +98,23 @@ class CompiledScene:
                 out[sel] = v[:, [0, 2, 1]] if np.linalg.det(m) < 0 else v
         return out
 
+    def _interpolated(self, ids, points: np.ndarray, present: bool, tri_attr, mesh_attr, fill: float,
+                      width: int) -> np.ndarray:
+        """A per-corner attribute interpolated barycentrically at world `points` on virtual triangles `ids`."""
+        ids = np.asarray(ids, dtype=np.int64)
+        if not present or not len(ids):
+            return np.full((len(ids), width), fill)
+        corners = self._corners(ids, tri_attr, mesh_attr, normals=False)
+        return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+
     def uv_at(self, ids, points: np.ndarray) -> np.ndarray:
         """Texture coordinates (n, 2) at world `points` on virtual triangles `ids` (barycentric interpolation of the
         corners' UVs; zeros if the scene has none)."""
-        ids = np.asarray(ids, dtype=np.int64)
-        if not self.has_uv or not len(ids):
-            return np.zeros((len(ids), 2))
-        corners = self._corners(ids, self.triangle_uv, self.mesh_uv, normals=False)
-        return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+        return self._interpolated(ids, points, self.has_uv, self.triangle_uv, self.mesh_uv, 0.0, 2)
 
     def colors_at(self, ids, points: np.ndarray) -> np.ndarray:
         """Interpolated vertex colours (n, 3) at world `points` on triangles `ids` (ones if the scene has none)."""
-        ids = np.asarray(ids, dtype=np.int64)
-        if not self.has_colors or not len(ids):
-            return np.ones((len(ids), 3))
-        corners = self._corners(ids, self.triangle_colors, self.mesh_colors, normals=False)
-        return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+        return self._interpolated(ids, points, self.has_colors, self.triangle_colors, self.mesh_colors, 1.0, 3)
 
     def normals_at(self, ids, points: np.ndarray) -> np.ndarray:
         """Interpolated world shading normals (n, 3) at `points` on triangles `ids`, unit length; zero rows where

@@ -36,28 +36,6 @@ class RenderContext:
         self.textured = has_image_textures(self.scene.materials) and self.compiled.has_uv
 
 
-def hit_uv(ctx: RenderContext, hits: Hits, points: np.ndarray) -> np.ndarray | None:
-    """Texture coordinates (N,2) at the hits (zeros elsewhere), or None when no material needs them."""
-    if not ctx.textured:
-        return None
-    uv = np.zeros((len(points), 2))
-    m = hits.kind == TRIANGLE
-    if m.any():
-        uv[m] = ctx.compiled.uv_at(hits.prim[m], points[m])
-    return uv
-
-
-def hit_tint(ctx: RenderContext, hits: Hits, points: np.ndarray) -> np.ndarray | None:
-    """Interpolated vertex colours (N,3) at the hits (ones elsewhere), or None when no mesh has colours."""
-    if not ctx.compiled.has_colors:
-        return None
-    tint = np.ones((len(points), 3))
-    m = hits.kind == TRIANGLE
-    if m.any():
-        tint[m] = ctx.compiled.colors_at(hits.prim[m], points[m])
-    return tint
-
-
 @dataclass
 class SampleResult:
     """Per-ray results: linear colour (N,3), t of the closest hit (inf on a miss), world normal (N,3)."""
@@ -65,6 +43,25 @@ class SampleResult:
     color: np.ndarray
     t: np.ndarray
     normal: np.ndarray
+
+
+def _triangle_attribute(hits: Hits, points: np.ndarray, at, fill: float, width: int) -> np.ndarray:
+    """A per-corner mesh attribute interpolated at the triangle hits (`at(ids, points)`), `fill` elsewhere."""
+    out = np.full((len(points), width), fill)
+    m = hits.kind == TRIANGLE
+    if m.any():
+        out[m] = at(hits.prim[m], points[m])
+    return out
+
+
+def hit_uv(ctx: RenderContext, hits: Hits, points: np.ndarray) -> np.ndarray | None:
+    """Texture coordinates (N,2) at the hits (zeros elsewhere), or None when no material needs them."""
+    return _triangle_attribute(hits, points, ctx.compiled.uv_at, 0.0, 2) if ctx.textured else None
+
+
+def hit_tint(ctx: RenderContext, hits: Hits, points: np.ndarray) -> np.ndarray | None:
+    """Interpolated vertex colours (N,3) at the hits (ones elsewhere), or None when no mesh has colours."""
+    return _triangle_attribute(hits, points, ctx.compiled.colors_at, 1.0, 3) if ctx.compiled.has_colors else None
 
 
 def surface(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, hits: Hits):

@@ -6,16 +6,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .values import finite_triple
+
 
 def _rgb(v, what: str = "colour") -> np.ndarray:
     """A finite float64 RGB triple, or a ValueError naming the field."""
-    try:
-        a = np.asarray(v, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be three numbers (r, g, b), got {v!r}") from None
-    if not np.isfinite(a).all():
-        raise ValueError(f"{what} must be finite, got {a.tolist()}")
-    return a
+    return finite_triple(v, what, "three numbers (r, g, b)")
 
 
 @dataclass

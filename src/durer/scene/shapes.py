@@ -6,16 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .values import finite_triple
+
 
 def _vec3(v, what: str = "vector") -> np.ndarray:
     """A finite float64 3-vector, or a ValueError naming what was wrong."""
-    try:
-        a = np.asarray(v, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be three numbers, got {v!r}") from None
-    if not np.isfinite(a).all():
-        raise ValueError(f"{what} must be finite, got {a.tolist()}")
-    return a
+    return finite_triple(v, what)
 
 
 @dataclass
