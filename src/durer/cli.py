@@ -192,6 +192,46 @@ def run_course(argv: list[str]) -> int:
 
 
 # --- the modern command --------------------------------------------------------------------------------------
+def add_render_flags(p: argparse.ArgumentParser) -> None:
+    """The flags every rendering command shares (render, explain, preview): size, shading, sampling, meshes."""
+    p.add_argument("--size", nargs=2, type=_positive_int, default=(512, 512), metavar=("W", "H"),
+                   help="image width and height in pixels (default: 512 512)")
+    p.add_argument("--shade-back", action="store_true", help="light back faces too (else they are black)")
+    p.add_argument("--shadows", action="store_true", help="cast shadow rays to every light")
+    p.add_argument("--bounces", type=_nonneg_int, default=0, metavar="N",
+                   help="maximum depth of reflection and refraction rays (default: 0)")
+    p.add_argument("--weight", type=_number, default=0.01, metavar="W",
+                   help="stop rays whose contribution is below W (default: 0.01)")
+    p.add_argument("--samples", type=_positive_int, default=1, metavar="N",
+                   help="samples per pixel, jittered when N > 1 (default: 1, the pixel centre)")
+    p.add_argument("--sampler", choices=SAMPLERS, default=None,
+                   help="sample pattern when --samples > 1 (default: jittered)")
+    p.add_argument("--filter", default="box", metavar="NAME[:WIDTH]",
+                   help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
+                        "pixels, e.g. gaussian:0.4 (default: box:0.5)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
+    p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
+                   help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
+
+
+def render_options(a: argparse.Namespace) -> RenderOptions:
+    """RenderOptions from the flags of add_render_flags (UsageError on a bad --filter)."""
+    from .rendering.renderer import parse_filter
+
+    try:
+        name, radius = parse_filter(a.filter)
+    except ValueError as e:
+        raise UsageError(f"--filter: {e}") from None
+    if name not in FILTERS:
+        raise UsageError(f"--filter: unknown filter {name!r} (use one of {', '.join(FILTERS)})")
+    if radius is not None and not radius > 0:
+        raise UsageError("--filter: the width must be positive")
+    sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
+    return RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
+                         samples=a.samples, sampler=sampler, filter=name,
+                         filter_radius=radius if radius is not None else 0.5, seed=a.seed)
+
+
 def render_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="durer render", allow_abbrev=False,
                 usage="durer render SCENE -o OUT [options] (see --help)",
@@ -200,8 +240,6 @@ def render_parser() -> argparse.ArgumentParser:
                        "linear colour, t, normals). Exit status 2 on any user error.")
     p.add_argument("scene", help="scene file (MIT 6.837 format)")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
-    p.add_argument("--size", nargs=2, type=_positive_int, default=(512, 512), metavar=("W", "H"),
-                   help="image width and height in pixels (default: 512 512)")
     p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
                    help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
     p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
@@ -228,21 +266,10 @@ def render_parser() -> argparse.ArgumentParser:
 
 
 def run_render(argv: list[str]) -> int:
-    from .rendering.renderer import parse_filter, render
+    from .rendering.renderer import render
 
     a = render_parser().parse_args(argv)
-    try:
-        name, radius = parse_filter(a.filter)
-    except ValueError as e:
-        raise UsageError(f"--filter: {e}") from None
-    if name not in FILTERS:
-        raise UsageError(f"--filter: unknown filter {name!r} (use one of {', '.join(FILTERS)})")
-    if radius is not None and not radius > 0:
-        raise UsageError("--filter: the width must be positive")
-    sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
-    opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
-                         samples=a.samples, sampler=sampler, filter=name,
-                         filter_radius=radius if radius is not None else 0.5, seed=a.seed)
+    opts = render_options(a)
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load
