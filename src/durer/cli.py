@@ -159,8 +159,8 @@ def run_course(argv: list[str]) -> int:
     _check_outputs(outputs)
     ignored = [f for f, on in (("-gui", a.gui), ("-tessellation", a.tessellation), ("-gouraud", a.gouraud)) if on]
     if ignored:
-        print(f"durer: {', '.join(ignored)} (the course's OpenGL preview) ignored: rendering to files only",
-              file=sys.stderr)
+        print(f"durer: {', '.join(ignored)} (the course's OpenGL preview) ignored: rendering to files only "
+              "(`durer preview SCENE` is the live view)", file=sys.stderr)
     from . import load
     from .rendering.renderer import render
 
@@ -240,27 +240,12 @@ def render_parser() -> argparse.ArgumentParser:
                        "linear colour, t, normals). Exit status 2 on any user error.")
     p.add_argument("scene", help="scene file (MIT 6.837 format)")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
+    add_render_flags(p)
     p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
                    help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
     p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
-    p.add_argument("--shade-back", action="store_true", help="light back faces too (else they are black)")
-    p.add_argument("--shadows", action="store_true", help="cast shadow rays to every light")
-    p.add_argument("--bounces", type=_nonneg_int, default=0, metavar="N",
-                   help="maximum depth of reflection and refraction rays (default: 0)")
-    p.add_argument("--weight", type=_number, default=0.01, metavar="W",
-                   help="stop rays whose contribution is below W (default: 0.01)")
-    p.add_argument("--samples", type=_positive_int, default=1, metavar="N",
-                   help="samples per pixel, jittered when N > 1 (default: 1, the pixel centre)")
-    p.add_argument("--sampler", choices=SAMPLERS, default=None,
-                   help="sample pattern when --samples > 1 (default: jittered)")
-    p.add_argument("--filter", default="box", metavar="NAME[:WIDTH]",
-                   help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
-                        "pixels, e.g. gaussian:0.4 (default: box:0.5)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
     p.add_argument("--linear", action="store_true",
                    help="write 8-bit colour without the sRGB curve, truncated as the course does")
-    p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
-                   help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
     return p
 
@@ -288,10 +273,38 @@ def run_render(argv: list[str]) -> int:
     return 0
 
 
-COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser)}
-USAGE = ("usage: durer {raycast,render} ...\n"
+# --- issue 12: one pixel's ray tree (cli_explain.py) and the live preview (preview/command.py) ---------------
+def explain_parser() -> argparse.ArgumentParser:
+    from .cli_explain import build_parser
+
+    return build_parser(_Parser, add_render_flags)
+
+
+def run_explain(argv: list[str]) -> int:
+    from .cli_explain import explain_command
+
+    return explain_command(explain_parser().parse_args(argv), render_options)
+
+
+def preview_parser() -> argparse.ArgumentParser:
+    from .preview.command import build_parser
+
+    return build_parser(_Parser, add_render_flags)
+
+
+def run_preview(argv: list[str]) -> int:
+    from .preview.command import preview_command
+
+    return preview_command(preview_parser().parse_args(argv), render_options)
+
+
+COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser),
+            "explain": (run_explain, explain_parser), "preview": (run_preview, preview_parser)}
+USAGE = ("usage: durer {raycast,render,explain,preview} ...\n"
          "  durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's flags\n"
          "  durer render SCENE -o OUT.png [--size W H] [...]          the modern command\n"
+         "  durer explain SCENE --pixel X Y [--json] [--draw OUT]     one pixel's ray tree\n"
+         "  durer preview SCENE [--port P] [--no-browser]             live view in the browser\n"
          "`durer COMMAND --help` lists a command's options.")
 
 
