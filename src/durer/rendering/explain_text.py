@@ -2,11 +2,6 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:  # only for the annotation: explain.py imports this module lazily
-    from .explain import PixelTree
-
 
 def _v(a, digits: int = 4) -> str:
     return "(" + ", ".join(f"{x:.{digits}g}" for x in a) + ")"
@@ -64,8 +59,8 @@ def _node_lines(node: dict, depth: int) -> list[str]:
     return lines
 
 
-def tree_text(tree: PixelTree) -> str:
-    """`durer explain`'s text output."""
+def tree_text(tree) -> str:
+    """`durer explain`'s text output of an explain.PixelTree (not imported: explain.py imports this module)."""
     from ..io.images import encode_srgb
 
     x, y = tree.pixel
