@@ -28,6 +28,10 @@ def __getattr__(name: str):
         from .query import RaycastingScene
 
         return RaycastingScene
+    if name == "preview":  # the live view (preview/): durer.preview(scene) serves it, inline in Jupyter
+        from . import preview
+
+        return preview
     raise AttributeError(f"module 'durer' has no attribute {name!r}")
 
 
@@ -48,5 +52,5 @@ __all__ = [
     "Checkerboard", "DirectionalLight", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
     "OrthographicCamera", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight",
     "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "Transform", "Triangle", "TriangleMesh",
-    "UsageError", "Wood", "load", "render", "transforms",
+    "UsageError", "Wood", "load", "preview", "render", "transforms",
 ]

@@ -160,7 +160,15 @@ def render(scene: Scene, width: int, height: int, *, options: RenderOptions | No
     width, height = int(width), int(height)
     options = make_options(options, **kwargs)
     start = time.perf_counter()
-    ctx = make_context(scene, options)
+    return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+
+
+def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,
+              start: float | None = None) -> RenderResult:
+    """render() with a prepared context: the preview renders many views of one compiled scene (ctx.scene's camera
+    is the one used, so a view is RenderContext(scene with another camera, the same compiled scene and accel))."""
+    start = time.perf_counter() if start is None else start
+    scene, options = ctx.scene, ctx.options
     integrate = choose_integrator(options)
     points, pixel = film.sample_points(width, height, options)
     origins, directions, valid = scene.camera.generate_rays(points, width, height)
