@@ -89,6 +89,8 @@ class PreviewSession:
         self._thread: threading.Thread | None = None
         if self.scene is not None:
             self._set_scene(self.scene)
+        else:  # load (and compile) now, before any worker runs: the state has a camera, the terminal the error
+            self._reload_if_changed()
 
     # --- listeners and state -----------------------------------------------------------------------------
     def subscribe(self, listener: Callable[[dict], None]) -> Callable[[], None]:
