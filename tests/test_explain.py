@@ -112,7 +112,7 @@ def test_contributions_add_up_to_the_rendered_pixel(flags, tmp_path, capsys):
 def test_json_nodes_have_the_documented_fields(capsys):
     tree = _json(["explain", str(EXAMPLE), "--pixel", "12", "8", "--json", "--size", "24", "16", "--shadows",
                   "--bounces", "3"], capsys)
-    assert set(tree) >= {"pixel", "color", "rays"}
+    assert set(tree) == {"pixel", "color", "rays"}
     kinds = set()
     for node in walk(tree["rays"]):
         assert set(node) >= {"kind", "origin", "direction", "t", "hit", "contribution", "children"}
@@ -226,3 +226,24 @@ def test_malformed_scene_is_one_line(tmp_path, capsys):
     assert main(["explain", str(bad), "--pixel", "0", "0"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"{bad}:") and len(err.splitlines()) == 1
+
+
+def test_total_internal_reflection_is_marked_and_has_no_refracted_ray():
+    """A camera inside a glass ball (index 1.5) at x = 0.9 looking along +y meets the surface at
+    cos = sqrt(1 - 0.81) = 0.436, 64 degrees from the normal, beyond the critical angle asin(1/1.5) = 41.8:
+    the light is totally reflected, so the node has a reflection child and no refraction child."""
+    scene = durer.Scene(
+        camera=durer.PerspectiveCamera(center=(0.9, 0, 0), direction=(0, 1, 0), up=(0, 0, 1), angle=1),
+        group=durer.Group([durer.Sphere((0, 0, 0), 1, material=0)]),
+        materials=[durer.PhongMaterial(diffuse_color=(0.1, 0.1, 0.1), reflective_color=(0.2, 0.2, 0.2),
+                                       transparent_color=(0.8, 0.8, 0.8), index_of_refraction=1.5)],
+        lights=[durer.DirectionalLight(direction=(0, -1, 0), color=(1, 1, 1))],
+        background_color=(0.3, 0.5, 0.7), ambient_light=(0.2, 0.2, 0.2))
+    options = dict(shadows=True, bounces=1, shade_back=True)
+    tree = explain(scene, 1, 1, 0, 0, **options)
+    (ray,) = tree.rays
+    assert ray["hit"]["back_face"] and ray["t"] == pytest.approx(np.sqrt(1 - 0.81))
+    assert ray["total_internal_reflection"] is True
+    assert [c["kind"] for c in ray["children"]] == ["reflection"]
+    np.testing.assert_allclose(tree.color, durer.render(scene, 1, 1, **options).color[0, 0], atol=1e-6)
+    assert "total internal reflection: no refracted ray" in tree.text()

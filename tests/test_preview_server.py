@@ -216,3 +216,31 @@ def test_cli_errors_exit_2(tmp_path, capsys):
         assert main(["preview", str(EXAMPLE), "--no-browser", "--port", str(port)]) == 2
     err = capsys.readouterr().err
     assert f"cannot listen on 127.0.0.1:{port}" in err and "Traceback" not in err
+
+
+def test_the_command_prints_its_address_and_serves_the_page(tmp_path):
+    """`durer preview SCENE --port 0 --no-browser` as a user runs it: the URL on stdout, the page there, and
+    Ctrl+C (SIGINT) stops it cleanly: status 130 as for any interrupted durer command, no traceback."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import urllib.request
+
+    proc = subprocess.Popen([sys.executable, "-m", "durer", "preview", str(EXAMPLE), "--port", "0", "--no-browser",
+                             "--size", "16", "12"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ))
+    try:
+        line = proc.stdout.readline()  # printed once the socket listens
+        assert line.startswith(f"durer preview: {EXAMPLE} at http://127.0.0.1:"), line + proc.stderr.read()
+        url = line.split(" at ")[1].split()[0]
+        with urllib.request.urlopen(url + "state", timeout=TIMEOUT) as response:
+            assert json.loads(response.read())["width"] == 16
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            code = proc.wait(timeout=TIMEOUT)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise
+    assert code == 130 and "Traceback" not in proc.stderr.read()

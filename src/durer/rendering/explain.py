@@ -63,9 +63,8 @@ class PixelTree:
         return np.sum([n["contribution"] for n in walk(self.rays)], axis=0) if self.rays else np.zeros(3)
 
     def to_json(self) -> dict:
-        """{"pixel": [x, y], "color": [r, g, b] (linear), "size": [w, h], "rays": [node, ...]}."""
-        return {"pixel": list(self.pixel), "color": [float(c) for c in self.color], "size": list(self.size),
-                "rays": self.rays}
+        """{"pixel": [x, y], "color": [r, g, b] (linear), "rays": [node, ...]}, as the issue specifies."""
+        return {"pixel": list(self.pixel), "color": [float(c) for c in self.color], "rays": self.rays}
 
     def text(self) -> str:
         """The tree as indented text, one ray per line with its shading terms below it."""
