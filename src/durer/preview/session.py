@@ -229,7 +229,11 @@ class PreviewSession:
                 self._reload_if_changed()
             self._run_jobs()
             if self.scene is not None and rendered != self._generation:
-                rendered = self._render_progressively()
+                try:
+                    rendered = self._render_progressively()
+                except Exception as e:  # keep serving: say what failed, wait for the next change
+                    rendered = self._generation
+                    self._send({"type": "notice", "message": f"render failed: {type(e).__name__}: {e}"})
 
     def _run_jobs(self) -> None:
         while True:
@@ -267,6 +271,8 @@ class PreviewSession:
             if was is not None:
                 self._send({"type": "error", "message": None})
             self._set_scene(scene)
+            if self.tree is not None:  # a tree of the old scene would mislead
+                self.clear_tree()
             self._changed()
 
     def _set_scene(self, scene: Scene) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 
 def _v(a, digits: int = 4) -> str:
-    return "(" + ", ".join(f"{x:.{digits}g}" for x in a) + ")"
+    return "(" + ", ".join(f"{x + 0.0:.{digits}g}" for x in a) + ")"  # + 0.0: no "-0"
 
 
 def _ray_line(node: dict) -> str:
