@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import os
+import sys
 
 from .errors import DurerError, SceneError, UsageError
 from .rendering.renderer import RenderResult, render
@@ -29,9 +30,9 @@ def __getattr__(name: str):
 
         return RaycastingScene
     if name == "preview":  # the live view (preview/): durer.preview(scene) serves it, inline in Jupyter
-        from . import preview
+        from .preview import show  # imports the package durer.preview, which is callable: preview(...) is show(...)
 
-        return preview
+        return sys.modules[show.__module__]
     raise AttributeError(f"module 'durer' has no attribute {name!r}")
 
 
