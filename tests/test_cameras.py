@@ -134,3 +134,30 @@ def test_frame_sphere_sees_the_whole_sphere_from_above_and_aside(shape):
     border = np.concatenate([miss[0], miss[-1], miss[:, 0], miss[:, -1]])
     assert (border > radius).all() and miss[shape[1] // 2, shape[0] // 2] < radius
     assert (miss < radius).mean() > 0.4  # the sphere fills a good part of the image
+
+
+@pytest.mark.parametrize("camera", [
+    OrthographicCamera(center=(1, 2, 3), direction=(0.2, -0.1, -1), up=(0, 1, 0.3), size=4),
+    PerspectiveCamera(center=(1, 2, 3), direction=(0.2, -0.1, -1), up=(0, 1, 0.3), angle=50),
+    FisheyeCamera(center=(1, 2, 3), direction=(0.2, -0.1, -1), up=(0, 1, 0.3), angle=220),
+    PanoramaCamera(center=(1, 2, 3), direction=(0.2, -0.1, -1), up=(0, 1, 0.3)),
+], ids=lambda c: type(c).__name__)
+def test_project_inverts_generate_rays(camera):
+    """project(o + t d) gives back the film point each ray came from, for any t in front (and any t at all for
+    the orthographic camera, whose rays come from infinity)."""
+    w, h = 40, 20
+    rng = np.random.default_rng(1)
+    film = rng.random((200, 2)) * (w, h)
+    o, d, valid = camera.generate_rays(film, w, h)
+    t = rng.uniform(0.1, 30.0, 200) * (np.where(rng.random(200) < 0.5, -1, 1) if camera.t_min < 0 else 1)
+    back, seen = camera.project(o + t[:, None] * d, w, h)
+    assert seen[valid].all()
+    np.testing.assert_allclose(back[valid], film[valid], atol=1e-9)
+
+
+def test_perspective_project_marks_points_behind_the_camera():
+    cam = PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), angle=90)
+    film, seen = cam.project(np.array([[0, 0, -1], [0, 0, 1], [1, 0, -1]]), 100, 100)
+    assert seen.tolist() == [True, False, True]
+    np.testing.assert_allclose(film[0], [50, 50])
+    np.testing.assert_allclose(film[2], [100, 50])  # 45 degrees right: the image's right edge (fov 90)

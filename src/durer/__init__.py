@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import os
+import sys
 
 from .errors import DurerError, SceneError, UsageError
 from .rendering.renderer import RenderResult, render
@@ -28,6 +29,10 @@ def __getattr__(name: str):
         from .query import RaycastingScene
 
         return RaycastingScene
+    if name == "preview":  # the live view (preview/): durer.preview(scene) serves it, inline in Jupyter
+        from .preview import show  # imports the package durer.preview, which is callable: preview(...) is show(...)
+
+        return sys.modules[show.__module__]
     raise AttributeError(f"module 'durer' has no attribute {name!r}")
 
 
@@ -54,5 +59,5 @@ __all__ = [
     "Checkerboard", "DirectionalLight", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
     "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane",
     "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight", "Transform",
-    "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "render", "transforms",
+    "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "preview", "render", "transforms",
 ]

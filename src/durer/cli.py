@@ -190,24 +190,12 @@ def run_course(argv: list[str]) -> int:
 
 
 # --- the modern command --------------------------------------------------------------------------------------
-def render_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="durer render", allow_abbrev=False,
-                usage="durer render SCENE -o OUT [options] (see --help)",
-                description="Render a scene file to an image (colour, and optionally depth and normals).",
-                epilog="Image formats by extension: .png .tga .ppm .bmp (8-bit), .npy .pfm (raw float arrays: "
-                       "linear colour, t, normals). Exit status 2 on any user error.")
-    p.add_argument("scene", help="scene file: a model (.glb .gltf .obj .ply .stl .off) or a MIT 6.837 scene")
-    p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
-    p.add_argument("--size", nargs=2, type=_positive_int, default=None, metavar=("W", "H"),
-                   help="image width and height in pixels (default: 512 512, or 512 on the longer side in the "
-                        "aspect ratio of a glTF camera)")
-    p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
-                   help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
-    p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
+def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] | None = (512, 512),
+                     size_help: str = "image width and height in pixels (default: 512 512)") -> None:
+    """The flags every rendering command shares (render, explain, preview): size, shading, sampling, meshes."""
+    p.add_argument("--size", nargs=2, type=_positive_int, default=size_default, metavar=("W", "H"), help=size_help)
     p.add_argument("--shade-back", action=argparse.BooleanOptionalAction, default=True,
                    help="light back faces too (default; --no-shade-back paints them black, as the course did)")
-    p.add_argument("--camera", metavar="NAME|INDEX",
-                   help="which camera of a glTF file to render through (default: its first)")
     p.add_argument("--shadows", action="store_true", help="cast shadow rays to every light")
     p.add_argument("--bounces", type=_nonneg_int, default=0, metavar="N",
                    help="maximum depth of reflection and refraction rays (default: 0)")
@@ -224,18 +212,14 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--accel", choices=ACCELERATORS, default="bvh",
                    help="how rays find their closest hit: bvh, the bounding volume hierarchy (default), or brute, "
                         "the lecture's loop over every object (kernels/brute.py; slow on large scenes)")
-    p.add_argument("--linear", action="store_true",
-                   help="write 8-bit colour without the sRGB curve, truncated as the course does")
     p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
                    help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
-    return p
 
 
-def run_render(argv: list[str]) -> int:
-    from .rendering.renderer import check_size, parse_filter, render
+def render_options(a: argparse.Namespace) -> RenderOptions:
+    """RenderOptions from the flags of add_render_flags (UsageError on a bad --filter)."""
+    from .rendering.renderer import parse_filter
 
-    a = render_parser().parse_args(argv)
     try:
         name, radius = parse_filter(a.filter)
     except ValueError as e:
@@ -245,9 +229,37 @@ def run_render(argv: list[str]) -> int:
     if radius is not None and not radius > 0:
         raise UsageError("--filter: the width must be positive")
     sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
-    opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
+    return RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
                          samples=a.samples, sampler=sampler, filter=name,
                          filter_radius=radius if radius is not None else 0.5, seed=a.seed, accel=a.accel)
+
+
+def render_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="durer render", allow_abbrev=False,
+                usage="durer render SCENE -o OUT [options] (see --help)",
+                description="Render a scene file to an image (colour, and optionally depth and normals).",
+                epilog="Image formats by extension: .png .tga .ppm .bmp (8-bit), .npy .pfm (raw float arrays: "
+                       "linear colour, t, normals). Exit status 2 on any user error.")
+    p.add_argument("scene", help="scene file: a model (.glb .gltf .obj .ply .stl .off) or a MIT 6.837 scene")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
+    add_render_flags(p, size_default=None, size_help="image width and height in pixels (default: 512 512, or 512 "
+                     "on the longer side in the aspect ratio of a glTF camera)")
+    p.add_argument("--camera", metavar="NAME|INDEX",
+                   help="which camera of a glTF file to render through (default: its first)")
+    p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
+                   help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
+    p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
+    p.add_argument("--linear", action="store_true",
+                   help="write 8-bit colour without the sRGB curve, truncated as the course does")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
+    return p
+
+
+def run_render(argv: list[str]) -> int:
+    from .rendering.renderer import check_size, render
+
+    a = render_parser().parse_args(argv)
+    opts = render_options(a)
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load
@@ -278,10 +290,38 @@ def _default_size(camera, longer: int = 512) -> tuple[int, int]:
     return (longer, max(1, round(longer / aspect))) if aspect >= 1 else (max(1, round(longer * aspect)), longer)
 
 
-COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser)}
-USAGE = ("usage: durer {raycast,render} ...\n"
+# --- issue 12: one pixel's ray tree (cli_explain.py) and the live preview (preview/command.py) ---------------
+def explain_parser() -> argparse.ArgumentParser:
+    from .cli_explain import build_parser
+
+    return build_parser(_Parser, add_render_flags)
+
+
+def run_explain(argv: list[str]) -> int:
+    from .cli_explain import explain_command
+
+    return explain_command(explain_parser().parse_args(argv), render_options)
+
+
+def preview_parser() -> argparse.ArgumentParser:
+    from .preview.command import build_parser
+
+    return build_parser(_Parser, add_render_flags)
+
+
+def run_preview(argv: list[str]) -> int:
+    from .preview.command import preview_command
+
+    return preview_command(preview_parser().parse_args(argv), render_options)
+
+
+COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser),
+            "explain": (run_explain, explain_parser), "preview": (run_preview, preview_parser)}
+USAGE = ("usage: durer {raycast,render,explain,preview} ...\n"
          "  durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's flags\n"
          "  durer render SCENE -o OUT.png [--size W H] [...]          the modern command\n"
+         "  durer explain SCENE --pixel X Y [--json] [--draw OUT]     one pixel's ray tree\n"
+         "  durer preview SCENE [--port P] [--no-browser]             live view in the browser\n"
          "`durer COMMAND --help` lists a command's options.")
 
 

@@ -189,7 +189,15 @@ def render(scene: Scene, width: int, height: int, *, options: RenderOptions | No
     start = time.perf_counter()
     if not quiet and kernels_cold():
         print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
-    ctx = make_context(scene, options)
+    return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+
+
+def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,
+              start: float | None = None) -> RenderResult:
+    """render() with a prepared context: the preview renders many views of one compiled scene (ctx.scene's camera
+    is the one used, so a view is RenderContext(scene with another camera, the same compiled scene and accel))."""
+    start = time.perf_counter() if start is None else start
+    scene, options = ctx.scene, ctx.options
     integrate = choose_integrator(options)
     camera = scene.camera
     if getattr(camera, "frame", None) is not None:  # a camera framed on a model: frame it for this image's shape

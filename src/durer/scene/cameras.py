@@ -49,6 +49,18 @@ def _film_offsets(points: np.ndarray, width: int, height: int, longer: bool = Tr
     return (p[..., 0] - 0.5 * width) / side, (p[..., 1] - 0.5 * height) / side
 
 
+def _film_points(sx: np.ndarray, sy: np.ndarray, width: int, height: int, longer: bool = True) -> np.ndarray:
+    """The inverse of _film_offsets: offsets in units of the longer (or shorter) side -> film points (..., 2)."""
+    side = float(max(width, height) if longer else min(width, height))
+    return np.stack([sx * side + 0.5 * width, sy * side + 0.5 * height], axis=-1)
+
+
+def _local(camera, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World points (..., 3) in the camera's frame: (along horizontal, along up, along direction) from its center."""
+    v = np.asarray(points, dtype=np.float64) - camera.center
+    return v @ camera.horizontal, v @ camera.up, v @ camera.direction
+
+
 def pixel_centers(width: int, height: int) -> np.ndarray:
     """Film points (H, W, 2) of the pixel centres, in image order: row 0 is the *top* row."""
     xs = np.arange(width) + 0.5
@@ -84,6 +96,12 @@ class OrthographicCamera:
         directions = np.broadcast_to(self.direction, origins.shape).copy()
         return origins, directions, np.ones(sx.shape, dtype=bool)
 
+    def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """World points (..., 3) -> film points (..., 2) in pixels (x right, y up) and a mask of the points the
+        camera sees (all of them: its rays come from infinity). The inverse of generate_rays."""
+        x, y, _ = _local(self, points)
+        return _film_points(x / self.size, y / self.size, width, height), np.ones(x.shape, dtype=bool)
+
 
 @dataclass
 class PerspectiveCamera:
@@ -113,6 +131,15 @@ class PerspectiveCamera:
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
         origins = np.broadcast_to(self.center, d.shape).copy()
         return origins, d, np.ones(sx.shape, dtype=bool)
+
+    def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """World points (..., 3) -> film points (..., 2) in pixels through the pinhole, and a mask of the points
+        in front of it (the others get meaningless film points)."""
+        x, y, z = _local(self, points)
+        extent = 2.0 * np.tan(np.radians(self.angle) / 2.0)
+        front = z > 1e-12
+        zs = np.where(front, z, 1.0) * extent
+        return _film_points(x / zs, y / zs, width, height), front
 
 
 @dataclass
@@ -147,6 +174,15 @@ class FisheyeCamera:
         origins = np.broadcast_to(self.center, d.shape).copy()
         return origins, d, r <= 0.5
 
+    def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """World points (..., 3) -> film points (..., 2) in pixels, and a mask of the points inside the image
+        circle (the inverse of generate_rays: radius proportional to the angle from the view direction)."""
+        x, y, z = _local(self, points)
+        theta = np.arctan2(np.hypot(x, y), z)
+        r = theta / np.radians(self.angle)
+        phi = np.arctan2(y, x)
+        return _film_points(r * np.cos(phi), r * np.sin(phi), width, height, longer=False), r <= 0.5
+
 
 @dataclass
 class PanoramaCamera:
@@ -172,6 +208,15 @@ class PanoramaCamera:
              + np.sin(lat)[..., None] * self.up)
         origins = np.broadcast_to(self.center, d.shape).copy()
         return origins, d, np.ones(lon.shape, dtype=bool)
+
+    def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """World points (..., 3) -> film points (..., 2) in pixels (longitude, latitude), and a mask of the points
+        not at the center itself."""
+        x, y, z = _local(self, points)
+        lon = np.arctan2(x, z)
+        lat = np.arctan2(y, np.hypot(x, z))
+        film = np.stack([(lon / (2.0 * np.pi) + 0.5) * width, (lat / np.pi + 0.5) * height], axis=-1)
+        return film, (np.abs(x) + np.abs(y) + np.abs(z)) > 0
 
 
 Camera = OrthographicCamera | PerspectiveCamera | FisheyeCamera | PanoramaCamera

@@ -1,0 +1,68 @@
+"""`durer explain SCENE --pixel X Y`: one pixel's ray tree (rendering/explain.py) as text, JSON or a drawing.
+
+cli.py registers the command and hands over its shared render flags (add_render_flags, render_options), so the
+tree is that of the pixel `durer render` writes with the same flags.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+from .errors import UsageError
+
+
+def build_parser(parser_class, add_render_flags) -> argparse.ArgumentParser:
+    p = parser_class(prog="durer explain", allow_abbrev=False,
+                     usage="durer explain SCENE --pixel X Y [--json] [--draw OUT.png] [render options]",
+                     description="Print the ray tree of one pixel: every ray cast for it (camera, shadow, "
+                                 "reflection, refraction), what it hit, the shading terms and its contribution "
+                                 "to the pixel's colour, which is the sum of the contributions.",
+                     epilog="The render options are those of `durer render`: the tree is that of the pixel "
+                            "`durer render` writes with the same options. Exit status 2 on any user error.")
+    p.add_argument("scene", help="scene file")
+    p.add_argument("--pixel", nargs=2, type=int, required=True, metavar=("X", "Y"),
+                   help="the pixel: X from the left, Y from the top, in the image of --size")
+    p.add_argument("--json", action="store_true", help="print the tree as JSON instead of text")
+    p.add_argument("--draw", metavar="OUT.png", help="also draw the rays over the rendered image into OUT.png")
+    add_render_flags(p)
+    return p
+
+
+def explain_command(a: argparse.Namespace, render_options) -> int:
+    """Run `durer explain` on parsed arguments; render_options turns them into RenderOptions."""
+    from .io.images import check_extension, write_atomic
+
+    opts = render_options(a)
+    width, height = a.size
+    x, y = a.pixel
+    if not (0 <= x < width and 0 <= y < height):
+        raise UsageError(f"--pixel {x} {y} is outside the {width}x{height} image "
+                         f"(X in 0..{width - 1} from the left, Y in 0..{height - 1} from the top)")
+    if a.draw:
+        if check_extension(a.draw) not in (".png", ".bmp", ".tga", ".ppm"):
+            raise UsageError(f"--draw: '{a.draw}' must be an 8-bit image (.png, .bmp, .tga, .ppm)")
+        folder = os.path.dirname(os.path.abspath(a.draw))
+        if not os.path.isdir(folder):
+            raise UsageError(f"cannot write '{a.draw}': folder '{folder}' does not exist")
+    from . import load
+    from .rendering.explain import explain
+
+    scene = load(a.scene, mesh_path=a.mesh_path)
+    opts.validate()
+    tree = explain(scene, width, height, x, y, options=opts)
+    if a.json:
+        print(json.dumps(tree.to_json(), allow_nan=False))
+    else:
+        print(tree.text())
+    if a.draw:
+        from .rendering.explain_draw import draw_tree
+        from .rendering.renderer import render
+
+        image = draw_tree(tree, render(scene, width, height, options=opts).color, scene.camera)
+        fmt = {".png": "PNG", ".bmp": "BMP", ".tga": "TGA", ".ppm": "PPM"}[check_extension(a.draw)]
+        write_atomic(a.draw, lambda f: image.save(f, format=fmt))
+        print(f"durer: drew the ray tree over the image into {a.draw}", file=sys.stderr)
+    return 0

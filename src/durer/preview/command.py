@@ -1,0 +1,68 @@
+"""`durer preview SCENE`: serve the live view (server.py) and open it in the browser.
+
+cli.py registers the command and hands over its shared render flags, so the view starts as `durer render` with
+the same flags would draw it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from ..errors import UsageError
+
+DEFAULT_PORT = 8765
+
+
+def build_parser(parser_class, add_render_flags) -> argparse.ArgumentParser:
+    p = parser_class(prog="durer preview", allow_abbrev=False,
+                     usage="durer preview SCENE [--host H] [--port P] [--no-browser] [render options]",
+                     description="Show a scene live in the browser: progressive rendering, orbit (drag), pan "
+                                 "(shift- or right-drag), zoom (wheel), colour/depth/normals, samples and bounces, "
+                                 "and a click shows that pixel's ray tree. Editing the scene file reloads it.",
+                     epilog="Needs the preview extra: pip install 'durer[preview]'. Exit status 2 on a user error "
+                            "(a missing scene file, a port in use); a malformed scene is shown on the page.")
+    p.add_argument("scene", help="scene file (reloaded when it changes)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (default: 127.0.0.1, this machine only)")
+    p.add_argument("--port", type=int, default=DEFAULT_PORT,
+                   help=f"port to listen on, 0 for any free port (default: {DEFAULT_PORT})")
+    p.add_argument("--no-browser", action="store_true", help="only print the address, do not open a browser")
+    add_render_flags(p)
+    return p
+
+
+def preview_command(a: argparse.Namespace, render_options) -> int:
+    """Run `durer preview` on parsed arguments until interrupted."""
+    opts = render_options(a)
+    opts.validate()
+    if not os.path.isfile(a.scene):
+        raise UsageError(f"{a.scene}: no such scene file")
+    if not 0 <= a.port <= 65535:
+        raise UsageError(f"--port: expected 0 to 65535, got {a.port}")
+    try:
+        from .server import PreviewServer
+    except ImportError as e:
+        raise UsageError(f"durer preview needs the preview extra ({e.name} is missing): "
+                         "pip install 'durer[preview]'") from None
+    from .session import PreviewSession
+
+    session = PreviewSession(a.scene, a.size[0], a.size[1], opts, mesh_path=a.mesh_path)
+    try:
+        server = PreviewServer(session, a.host, a.port)
+    except OSError as e:
+        raise UsageError(f"cannot listen on {a.host}:{a.port}: {e.strerror or e}") from None
+
+    def report(message: dict) -> None:  # scene errors go to the terminal too, one line each
+        if message.get("type") == "error" and message.get("message"):
+            print(message["message"], file=sys.stderr, flush=True)
+
+    session.subscribe(report)
+    print(f"durer preview: {a.scene} at {server.url} (Ctrl+C stops)", flush=True)
+    if not a.no_browser:
+        import webbrowser
+
+        webbrowser.open(server.url)
+    server.run()
+    return 0
