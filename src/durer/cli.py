@@ -291,10 +291,19 @@ def _default_size(camera, longer: int = 512) -> tuple[int, int]:
 
 
 # --- issue 12: one pixel's ray tree (cli_explain.py) and the live preview (preview/command.py) ---------------
-def explain_parser() -> argparse.ArgumentParser:
-    from .cli_explain import build_parser
+def _subcommand_parser(module) -> argparse.ArgumentParser:
+    """The parser of a command whose module gives PARSER (prog, usage, ...) and add_arguments, plus the render
+    flags every rendering command shares."""
+    p = _Parser(allow_abbrev=False, **module.PARSER)
+    module.add_arguments(p)
+    add_render_flags(p)
+    return p
 
-    return build_parser(_Parser, add_render_flags)
+
+def explain_parser() -> argparse.ArgumentParser:
+    from . import cli_explain
+
+    return _subcommand_parser(cli_explain)
 
 
 def run_explain(argv: list[str]) -> int:
@@ -304,9 +313,9 @@ def run_explain(argv: list[str]) -> int:
 
 
 def preview_parser() -> argparse.ArgumentParser:
-    from .preview.command import build_parser
+    from .preview import command
 
-    return build_parser(_Parser, add_render_flags)
+    return _subcommand_parser(command)
 
 
 def run_preview(argv: list[str]) -> int:

@@ -13,22 +13,23 @@ import sys
 
 from .errors import UsageError
 
+# how `durer explain` introduces itself; cli.py builds the parser and adds the shared render flags
+PARSER = dict(prog="durer explain",
+              usage="durer explain SCENE --pixel X Y [--json] [--draw OUT.png] [render options]",
+              description="Print the ray tree of one pixel: every ray cast for it (camera, shadow, "
+                          "reflection, refraction), what it hit, the shading terms and its contribution "
+                          "to the pixel's colour, which is the sum of the contributions.",
+              epilog="The render options are those of `durer render`: the tree is that of the pixel "
+                     "`durer render` writes with the same options. Exit status 2 on any user error.")
 
-def build_parser(parser_class, add_render_flags) -> argparse.ArgumentParser:
-    p = parser_class(prog="durer explain", allow_abbrev=False,
-                     usage="durer explain SCENE --pixel X Y [--json] [--draw OUT.png] [render options]",
-                     description="Print the ray tree of one pixel: every ray cast for it (camera, shadow, "
-                                 "reflection, refraction), what it hit, the shading terms and its contribution "
-                                 "to the pixel's colour, which is the sum of the contributions.",
-                     epilog="The render options are those of `durer render`: the tree is that of the pixel "
-                            "`durer render` writes with the same options. Exit status 2 on any user error.")
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The flags of `durer explain` besides the render flags every rendering command shares."""
     p.add_argument("scene", help="scene file")
     p.add_argument("--pixel", nargs=2, type=int, required=True, metavar=("X", "Y"),
                    help="the pixel: X from the left, Y from the top, in the image of --size")
     p.add_argument("--json", action="store_true", help="print the tree as JSON instead of text")
     p.add_argument("--draw", metavar="OUT.png", help="also draw the rays over the rendered image into OUT.png")
-    add_render_flags(p)
-    return p
 
 
 def explain_command(a: argparse.Namespace, render_options) -> int:

@@ -193,13 +193,11 @@ def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
     """True as soon as anything is hit with t_min < t < t_max (no ordering: the first hit ends the search)."""
     idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
     stack_node[0] = root
-    sp = 1
-    while True:
+    leaf, sp = -1, 1
+    while leaf != 0:  # the first hit of any leaf ends the search
         leaf, sp = next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max,
                              dist)
-        if leaf == 0:
-            return False
-        first, end = leaf_range(leaf)
+        first, end = leaf_range(leaf) if leaf != 0 else (0, 0)
         for j in range(first, end):
             p = leaf_prim[j]
             if p >= 0:
@@ -210,6 +208,7 @@ def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
                                                sph_w2o[s], t_min, t_max)
             if t < np.inf:
                 return True
+    return False
 
 
 @nb.njit(**JIT)

@@ -15,22 +15,24 @@ from ..errors import UsageError
 DEFAULT_PORT = 8765
 
 
-def build_parser(parser_class, add_render_flags) -> argparse.ArgumentParser:
-    p = parser_class(prog="durer preview", allow_abbrev=False,
-                     usage="durer preview SCENE [--host H] [--port P] [--no-browser] [render options]",
-                     description="Show a scene live in the browser: progressive rendering, orbit (drag), pan "
-                                 "(shift- or right-drag), zoom (wheel), colour/depth/normals, samples and bounces, "
-                                 "and a click shows that pixel's ray tree. Editing the scene file reloads it.",
-                     epilog="Needs the preview extra: pip install 'durer[preview]'. Exit status 2 on a user error "
-                            "(a missing scene file, a port in use); a malformed scene is shown on the page.")
+# how `durer preview` introduces itself; cli.py builds the parser and adds the shared render flags
+PARSER = dict(prog="durer preview",
+              usage="durer preview SCENE [--host H] [--port P] [--no-browser] [render options]",
+              description="Show a scene live in the browser: progressive rendering, orbit (drag), pan "
+                          "(shift- or right-drag), zoom (wheel), colour/depth/normals, samples and bounces, "
+                          "and a click shows that pixel's ray tree. Editing the scene file reloads it.",
+              epilog="Needs the preview extra: pip install 'durer[preview]'. Exit status 2 on a user error "
+                     "(a missing scene file, a port in use); a malformed scene is shown on the page.")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The flags of `durer preview` besides the render flags every rendering command shares."""
     p.add_argument("scene", help="scene file (reloaded when it changes)")
     p.add_argument("--host", default="127.0.0.1",
                    help="address to listen on (default: 127.0.0.1, this machine only)")
     p.add_argument("--port", type=int, default=DEFAULT_PORT,
                    help=f"port to listen on, 0 for any free port (default: {DEFAULT_PORT})")
     p.add_argument("--no-browser", action="store_true", help="only print the address, do not open a browser")
-    add_render_flags(p)
-    return p
 
 
 def preview_command(a: argparse.Namespace, render_options) -> int:
