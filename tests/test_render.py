@@ -192,3 +192,13 @@ def test_render_result_in_a_notebook():
     png = r._repr_png_()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
     assert np.array_equal(np.asarray(Image.open(io.BytesIO(png))), srgb)
+
+
+def test_a_scene_without_lights_is_flat_colour_whatever_the_tracer_flags():
+    """No Lights block (assignment 1): shadows and bounces have no lights to work with, so the image is the ray
+    caster's flat colour (it used to end in a TypeError inside the shadow rays)."""
+    scene = simple_scene()
+    plain = durer.render(scene, 12, 12)
+    traced = durer.render(scene, 12, 12, shadows=True, bounces=3)
+    np.testing.assert_array_equal(traced.color, plain.color)
+    assert traced.color[6, 6].tolist() == [1.0, 0.0, 0.0] and traced.color[0, 0].tolist() == [0.0, 0.0, 1.0]

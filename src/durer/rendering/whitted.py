@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .raycaster import RenderContext, SampleResult, hit_tint, hit_uv, shade_local, surface
+from .raycaster import RenderContext, SampleResult, hit_tint, hit_uv, raycast, shade_local, surface
 from .shading import light_directions
 from .texturing import leaf_weights
 
@@ -95,7 +95,12 @@ def secondary_coefficients(ctx: RenderContext, mat: np.ndarray,
 
 def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float) -> SampleResult:
     """Trace camera rays with shadows (if ctx.options.shadows), reflection and refraction up to
-    ctx.options.bounces levels; returns linear colour and the camera rays' closest t and normal."""
+    ctx.options.bounces levels; returns linear colour and the camera rays' closest t and normal.
+
+    A scene without a Lights block is drawn in flat colour (assignment 1): with no lights there is nothing to cast
+    shadow rays to and no shading to reflect, so it is the ray caster's image."""
+    if ctx.scene.lights is None:
+        return raycast(ctx, origins, directions, t_min)
     opts = ctx.options
     n = len(origins)
     color = np.zeros((n, 3))
