@@ -92,24 +92,24 @@ def closest_hit_instances(origins, directions, t_min, t_max,
             best = t_max[i]
             b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
             idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
-            leaf, sp = descend(top_bounds, top_child, 0, top_node, top_t, 0, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
-                               lo, best, dist)
+            node, sp = 0, 0  # the top-level tree's root
             while True:
-                first, end = leaf_range(leaf) if leaf != 0 else (0, 0)
-                for j in range(first, end):
-                    k = top_leaf[j]
-                    px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
-                    t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center,
-                                                       sph_radius, sph_w2o, px, py, pz, qx, qy, qz, lo, best,
-                                                       stack_node, stack_t, dist)
-                    if kind != 0:
-                        best = t
-                        b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
+                leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx,
+                                   idy, idz, lo, best, dist)
+                if leaf != 0:
+                    first, end = leaf_range(leaf)
+                    for j in range(first, end):
+                        k = top_leaf[j]
+                        px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                        t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
+                                                           sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
+                                                           lo, best, stack_node, stack_t, dist)
+                        if kind != 0:
+                            best = t
+                            b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
                 node, sp = pop_closer(top_node, top_t, sp, best)
                 if node == 0:
                     break
-                leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx,
-                                   idy, idz, lo, best, dist)
             t_out[i] = best if b_kind != 0 else np.inf
             inst_out[i] = b_inst
             kind_out[i] = b_kind
