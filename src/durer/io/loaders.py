@@ -17,9 +17,16 @@ def _course(path: str, mesh_path: list[str] | None) -> Scene:
     return load_course_scene(path, mesh_path)
 
 
+def _mitsuba(path: str, mesh_path: list[str] | None) -> Scene:
+    from .mitsuba import load_mitsuba
+
+    return load_mitsuba(path, mesh_path)
+
+
 # extension (lower case, with the dot) -> reader(path, mesh_path); anything else is read as a course scene file
 LOADERS: dict[str, Loader] = {
     ".txt": _course,
+    ".xml": _mitsuba,  # Mitsuba 3 scenes (io/mitsuba.py)
 }
 
 

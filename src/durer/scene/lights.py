@@ -1,4 +1,5 @@
-"""Lights: directional (no falloff) and point (with the course's a + b*d + c*d^2 attenuation)."""
+"""Lights: directional (no falloff), point (with the course's a + b*d + c*d^2 attenuation) and a constant
+environment (the path tracer's sky; Mitsuba's `constant` emitter)."""
 
 from __future__ import annotations
 
@@ -42,3 +43,18 @@ class PointLight:
             raise ValueError("light position, colour and attenuation must be finite")
         if len(self.attenuation) != 3 or min(self.attenuation) < 0 or sum(self.attenuation) <= 0:
             raise ValueError("attenuation needs three non-negative coefficients, not all zero")
+
+
+@dataclass
+class ConstantEnvironment:
+    """Radiance arriving from every direction at infinity (seen by rays that escape the scene)."""
+
+    radiance: np.ndarray = (1.0, 1.0, 1.0)
+
+    def __post_init__(self):
+        self.radiance = np.asarray(self.radiance, dtype=np.float64).reshape(-1)
+        if self.radiance.size == 1:
+            self.radiance = np.repeat(self.radiance, 3)
+        if self.radiance.size != 3 or not np.isfinite(self.radiance).all() or self.radiance.min() < 0:
+            raise ValueError(f"environment radiance must be one or three finite non-negative numbers, "
+                             f"got {self.radiance.tolist()}")
