@@ -16,7 +16,7 @@ import time
 
 from .errors import DurerError, UsageError
 from .io.images import check_extension
-from .options import FILTERS, SAMPLERS, RenderOptions
+from .options import FILTERS, INTEGRATORS, SAMPLERS, RenderOptions
 
 EXIT_USAGE = 2
 
@@ -197,11 +197,11 @@ def render_parser() -> argparse.ArgumentParser:
                 usage="durer render SCENE -o OUT [options] (see --help)",
                 description="Render a scene file to an image (colour, and optionally depth and normals).",
                 epilog="Image formats by extension: .png .tga .ppm .bmp (8-bit), .npy .pfm (raw float arrays: "
-                       "linear colour, t, normals). Exit status 2 on any user error.")
-    p.add_argument("scene", help="scene file (MIT 6.837 format)")
+                       "linear colour, t, normals), .exr (OpenEXR). Exit status 2 on any user error.")
+    p.add_argument("scene", help="scene file (MIT 6.837 format, or Mitsuba 3 .xml)")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
-    p.add_argument("--size", nargs=2, type=_positive_int, default=(512, 512), metavar=("W", "H"),
-                   help="image width and height in pixels (default: 512 512)")
+    p.add_argument("--size", nargs=2, type=_positive_int, default=None, metavar=("W", "H"),
+                   help="image width and height in pixels (default: the scene's film, else 512 512)")
     p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
                    help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
     p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
@@ -211,11 +211,16 @@ def render_parser() -> argparse.ArgumentParser:
                    help="maximum depth of reflection and refraction rays (default: 0)")
     p.add_argument("--weight", type=_number, default=0.01, metavar="W",
                    help="stop rays whose contribution is below W (default: 0.01)")
-    p.add_argument("--samples", type=_positive_int, default=1, metavar="N",
+    p.add_argument("--integrator", choices=INTEGRATORS, default=None,
+                   help="auto (ray caster, or Whitted with --shadows/--bounces) or path (path tracer); "
+                        "default: the scene's own (Mitsuba scenes: path), else auto")
+    p.add_argument("--max-depth", type=int, default=None, metavar="N",
+                   help="path tracer: longest path (1 emitters, 2 direct light, -1 unbounded; default: the scene's)")
+    p.add_argument("--samples", type=_positive_int, default=None, metavar="N",
                    help="samples per pixel, jittered when N > 1 (default: 1, the pixel centre)")
     p.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="sample pattern when --samples > 1 (default: jittered)")
-    p.add_argument("--filter", default="box", metavar="NAME[:WIDTH]",
+    p.add_argument("--filter", default=None, metavar="NAME[:WIDTH]",
                    help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
                         "pixels, e.g. gaussian:0.4 (default: box:0.5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
@@ -232,31 +237,45 @@ def run_render(argv: list[str]) -> int:
 
     a = render_parser().parse_args(argv)
     try:
-        name, radius = parse_filter(a.filter)
+        name, radius = parse_filter(a.filter or "box")
     except ValueError as e:
         raise UsageError(f"--filter: {e}") from None
     if name not in FILTERS:
         raise UsageError(f"--filter: unknown filter {name!r} (use one of {', '.join(FILTERS)})")
     if radius is not None and not radius > 0:
         raise UsageError("--filter: the width must be positive")
-    sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
-    opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
-                         samples=a.samples, sampler=sampler, filter=name,
-                         filter_radius=radius if radius is not None else 0.5, seed=a.seed)
+    if a.max_depth is not None and a.max_depth < -1:
+        raise UsageError("--max-depth: must be -1 (unbounded) or a non-negative integer")
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load
 
     scene = load(a.scene, mesh_path=a.mesh_path)
+    # the scene's own render defaults (Mitsuba scenes: integrator, sampler, film) unless a flag overrides them
+    opts = {**scene.render_defaults, "shade_back": a.shade_back, "shadows": a.shadows, "bounces": a.bounces,
+            "weight": a.weight, "seed": a.seed}
+    given = {"integrator": a.integrator, "max_depth": a.max_depth, "samples": a.samples}
+    opts.update({k: v for k, v in given.items() if v is not None})
+    if a.filter is not None:
+        opts["filter"], opts["filter_radius"] = name, radius if radius is not None else 0.5
+    samples = opts.setdefault("samples", 1)
+    opts["sampler"] = a.sampler or ("jittered" if samples > 1 else "uniform")
+    size = a.size or (opts.pop("width", 512), opts.pop("height", 512))
+    opts.pop("width", None), opts.pop("height", None)
     start = time.perf_counter()
-    result = render(scene, a.size[0], a.size[1], options=opts, quiet=a.quiet)
+    try:
+        options = RenderOptions(**opts)
+        options.validate()
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    result = render(scene, size[0], size[1], options=options, quiet=a.quiet)
     result.save(a.output, course=a.linear)
     if depth:
         result.save_depth(depth[2], depth[0], depth[1])
     if a.normals:
         result.save_normals(a.normals)
     if not a.quiet:
-        print(f"durer: wrote {a.output} ({a.size[0]}x{a.size[1]}, {time.perf_counter() - start:.2f} s)",
+        print(f"durer: wrote {a.output} ({size[0]}x{size[1]}, {time.perf_counter() - start:.2f} s)",
               file=sys.stderr)
     return 0
 

@@ -1,6 +1,7 @@
 """Image output: colour, depth and normal visualisations, written atomically by file extension.
 
-8-bit formats (PNG, TGA, PPM, BMP) go through Pillow; `.npy` and `.pfm` keep the raw float arrays.
+8-bit formats (PNG, TGA, PPM, BMP) go through Pillow; `.npy`, `.pfm` and `.exr` (OpenEXR, through the optional
+`openexr` package: `pip install durer[exr]`) keep the raw float arrays.
 Course outputs are quantised as the course's Image class does: clamp to [0, 1], multiply by 255, truncate
 (no transfer curve). Native outputs are sRGB-encoded and rounded, as image viewers expect.
 """
@@ -18,7 +19,7 @@ from ..errors import UsageError
 # TgaImagePlugin is imported to register TGA: Pillow would otherwise import every plugin (~45 ms) on the
 # first TGA save; PNG, PPM and BMP are registered by Image.preinit.
 EIGHT_BIT = {".png": "PNG", ".tga": "TGA", ".ppm": "PPM", ".bmp": "BMP"}
-RAW = (".npy", ".pfm")
+RAW = (".npy", ".pfm", ".exr")
 EXTENSIONS = tuple(EIGHT_BIT) + RAW
 
 
@@ -63,6 +64,33 @@ def _write_pfm(f, data: np.ndarray) -> None:
     f.write(np.ascontiguousarray(data[::-1]).tobytes())  # PFM rows run bottom to top
 
 
+def _openexr():
+    try:
+        import OpenEXR
+    except ImportError:
+        raise UsageError("writing .exr needs the openexr package (pip install openexr, or durer[exr])") from None
+    return OpenEXR
+
+
+def _write_exr(path: str, data: np.ndarray) -> None:
+    """Float32 OpenEXR, ZIP-compressed: RGB for colour, Y for one channel; written beside and renamed."""
+    exr = _openexr()
+    pixels = np.ascontiguousarray(data, dtype=np.float32)
+    channels = {"RGB" if pixels.ndim == 3 else "Y": pixels}
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".durer-", suffix=".exr", dir=directory)
+    os.close(fd)
+    try:
+        with exr.File({"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage}, channels) as f:
+            f.write(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -94,6 +122,9 @@ def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:
         return
     if ext == ".pfm":
         write_atomic(path, lambda f: _write_pfm(f, data))
+        return
+    if ext == ".exr":
+        _write_exr(path, data)
         return
     pixels = quantize_course(data) if course else encode_srgb(data)
     if pixels.ndim == 2:

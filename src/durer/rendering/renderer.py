@@ -16,12 +16,14 @@ from ..accel.grid import GridAccelerator
 from ..accel.stats import CountingAccelerator, RayStats
 from ..io.images import depth_visualization, normal_visualization, save_image
 from ..options import RenderOptions
+from ..scene.bsdfs import BSDF, Surface
 from ..scene.graph import Scene
 from . import film
 from .grid_view import visualize_grid
 from .raycaster import RenderContext, SampleResult, raycast
 from .whitted import whitted
 
+PHYSICAL = (Surface, *BSDF.__args__)  # materials only the path tracer renders
 CHUNK = 1 << 13  # rays per batch: enough to keep the kernels busy, few enough for a live progress bar
 
 
@@ -172,6 +174,9 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
         raise ValueError(f"image size must be positive integers, got {width} x {height}")
     width, height = int(width), int(height)
     options = make_options(options, **kwargs)
+    if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in scene.materials):
+        raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
+                         "integrator='path'")
     start = time.perf_counter()
     ctx = make_context(scene, options)
     if options.integrator == "path":  # issue 10: rendering/path.py drives its own passes, one per sample

@@ -79,7 +79,8 @@ def _sobol2(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def sobol_pair(pixel_keys: np.ndarray, sample: np.ndarray, dim: int) -> np.ndarray:
     """(N, 2) Owen-scrambled Sobol points in [0,1)^2: pair `dim` of sample `sample` of the pixel whose stream key
     (seed and pixel, sample 0) is `pixel_keys`. Samples 0..n-1 of one pixel are stratified for every power of two."""
-    h = mix64(pixel_keys ^ (_U64(dim + 1) * _U64(0xA0761D6478BD642F)))
+    with np.errstate(over="ignore"):
+        h = mix64(pixel_keys ^ (_U64(dim + 1) * _U64(0xA0761D6478BD642F)))
     shuffle = (h & _U64(0xFFFFFFFF)).astype(_U32)
     s1 = (h >> _U64(32)).astype(_U32)
     s2 = (mix64(h) >> _U64(32)).astype(_U32)
