@@ -166,7 +166,10 @@ def to_world(v: np.ndarray, s: np.ndarray, t: np.ndarray, n: np.ndarray) -> np.n
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """MIS weight a^2 / (a^2 + b^2) of the strategy with pdf a against the one with pdf b (0 where both are 0);
     an infinite a (a delta strategy) gets weight 1."""
-    a2 = np.square(np.where(np.isinf(a), 1.0, a))
-    b2 = np.square(np.where(np.isinf(a), 0.0, b))
+    delta = np.isinf(a)
+    a, b = np.where(delta, 1.0, a), np.where(delta, 0.0, b)
+    m = np.maximum(a, b)
+    safe = np.where(m > 0, m, 1.0)
+    a2, b2 = np.square(a / safe), np.square(b / safe)  # scaled: no underflow of tiny pdfs
     total = a2 + b2
     return np.divide(a2, total, out=np.zeros_like(total), where=total > 0)
