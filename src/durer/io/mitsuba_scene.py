@@ -60,10 +60,10 @@ class _Props:
                                   "(outside durer's Mitsuba subset)", where)
 
 
-def _call(node, fn, *args):
+def _call(node, fn, *args, **kw):
     """Run a description constructor, turning its ValueError into a SceneError at the node."""
     try:
-        return fn(*args)
+        return fn(*args, **kw)
     except ValueError as e:
         raise node.error(f"{node.tag} '{node.type}': {e}") from None
 
