@@ -13,16 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-_U32 = np.uint32
+from ..kernels.qmc import sobol_pair_kernel, uniform_kernel
+
 _U64 = np.uint64
-_REV8 = np.array([int(f"{b:08b}"[::-1], 2) for b in range(256)], dtype=np.uint8)
-# direction numbers of the first two Sobol dimensions: bit reversal, and the Pascal matrix mod 2 (v ^= v >> 1)
-_SOBOL1 = np.zeros(32, dtype=np.uint32)
-_v = 1 << 31
-for _bit in range(32):
-    _SOBOL1[_bit] = _v
-    _v ^= _v >> 1
-_BITS = np.uint32(1) << np.arange(32, dtype=np.uint32)
 
 
 def mix64(x: np.ndarray) -> np.ndarray:
@@ -44,52 +37,18 @@ def key(seed: int, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
 
 def uniform(keys: np.ndarray, dim: int) -> np.ndarray:
     """(N,) floats in [0, 1) for dimension `dim` of the streams `keys` (53 random bits each)."""
-    with np.errstate(over="ignore"):
-        h = mix64(keys + _U64(dim + 1) * _U64(0x9E3779B97F4A7C15))
-    return (h >> _U64(11)).astype(np.float64) * (1.0 / (1 << 53))
-
-
-def _reverse_bits(x: np.ndarray) -> np.ndarray:
-    b = np.ascontiguousarray(x, dtype=_U32).view(np.uint8).reshape(-1, 4)
-    return _REV8[b[:, ::-1]].copy().view(_U32).reshape(np.shape(x))
-
-
-def _laine_karras(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    with np.errstate(over="ignore"):
-        x = x + seed
-        x ^= x * _U32(0x6C50B47C)
-        x ^= x * _U32(0xB82F1E52)
-        x ^= x * _U32(0xC7AFE638)
-        x ^= x * _U32(0x8D22F6E6)
-    return x
-
-
-def _owen(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """Nested uniform scramble of 32-bit fractions (hash-based Owen scrambling)."""
-    return _reverse_bits(_laine_karras(_reverse_bits(x), seed))
-
-
-def _sobol2(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The first two Sobol dimensions of uint32 indices, as 32-bit fractions."""
-    bits = (index[:, None] & _BITS) != 0
-    y = np.bitwise_xor.reduce(np.where(bits, _SOBOL1, _U32(0)), axis=1)
-    return _reverse_bits(index), y.astype(_U32)
+    out = np.empty(len(keys))
+    uniform_kernel(np.ascontiguousarray(keys, dtype=_U64), int(dim), out)
+    return out
 
 
 def sobol_pair(pixel_keys: np.ndarray, sample: np.ndarray, dim: int) -> np.ndarray:
-    """(N, 2) Owen-scrambled Sobol points in [0,1)^2: pair `dim` of sample `sample` of the pixel whose stream key
-    (seed and pixel, sample 0) is `pixel_keys`. Samples 0..n-1 of one pixel are stratified for every power of two."""
-    with np.errstate(over="ignore"):
-        h = mix64(pixel_keys ^ (_U64(dim + 1) * _U64(0xA0761D6478BD642F)))
-    shuffle = (h & _U64(0xFFFFFFFF)).astype(_U32)
-    s1 = (h >> _U64(32)).astype(_U32)
-    s2 = (mix64(h) >> _U64(32)).astype(_U32)
-    index = _owen(np.asarray(sample, dtype=_U32), shuffle)
-    x, y = _sobol2(index)
-    out = np.empty((len(index), 2))
-    out[:, 0] = _owen(x, s1).astype(np.float64) * 2.0 ** -32
-    out[:, 1] = _owen(y, s2).astype(np.float64) * 2.0 ** -32
-    # 32-bit values leave 1 - 2^-32 as the largest, below 1 in float64: no value reaches 1
+    """(N, 2) Owen-scrambled Sobol points in [0,1)^2: pair `dim` of sample `sample` of the pixel whose own stream
+    key is `pixel_keys`. Samples 0..n-1 of one pixel are stratified for every power of two (a (0, 2)-sequence); the
+    largest 32-bit fraction is below 1, so no value reaches 1."""
+    out = np.empty((len(pixel_keys), 2))
+    sobol_pair_kernel(np.ascontiguousarray(pixel_keys, dtype=_U64),
+                      np.ascontiguousarray(sample, dtype=np.int64), int(dim), out)
     return out
 
 
