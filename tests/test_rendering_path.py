@@ -94,3 +94,16 @@ def test_cornell_box_against_mitsuba():
     np.testing.assert_allclose(ours.mean(axis=(0, 1)), ref.mean(axis=(0, 1)), rtol=0.01)
     # per pixel: the difference is noise (16 x 16 pixels, the light's edge pixels excluded by the median)
     assert np.median(np.abs(ours - ref) / (ref + 0.05)) < 0.05
+
+
+@needs_course
+def test_every_course_scene_renders_under_the_path_tracer():
+    """Each course scene (every material, texture, light and camera kind of the course) path-traces to finite,
+    non-negative pixels: 6 x 6 pixels, 1 sample, 4 bounces, tiny on purpose."""
+    scenes = sorted(COURSE.glob("assignment*/scene*.txt"))
+    assert scenes
+    for path in scenes:
+        if "bunny_mesh_40k" in path.name:  # the same mesh as the 1k/5k scenes, 40x the loading time
+            continue
+        r = durer.render(durer.load(path), 6, 6, integrator="path", samples=1, max_depth=4)
+        assert np.isfinite(r.color).all() and r.color.min() >= 0, path.name

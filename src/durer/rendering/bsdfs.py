@@ -12,9 +12,11 @@ to their mean colour:
     reflectiveColor kr         -> perfect mirror weighted kr
     transparentColor kt, index -> perfect refraction weighted kt (index entering through the front face; total
                                   internal reflection reflects), no Fresnel term, as in the course's tracer.
-Course materials are not energy conserving in general (kd + ks + kr + kt may exceed 1); the path tracer renders
-them as given. Solid textures pick one of their blended materials per hit with the texture's weight as probability
-(rendering/path.py), an unbiased estimate of the blend.
+Course materials are not energy conserving in general (the glass of scene7_05 has kd + ks + kr + kt = 2.1, which
+would multiply light by 2.1 at each bounce inside it): when the lobes' sum exceeds 1 in some channel, all four are
+scaled down by that sum, so the material reflects and transmits at most what it receives. Solid textures pick one
+of their blended materials per hit with the texture's weight as probability (rendering/path.py), an unbiased
+estimate of the blend.
 """
 
 from __future__ import annotations
@@ -93,8 +95,10 @@ def _row(m) -> dict:
     if m is None:
         return r
     if isinstance(m, PhongMaterial):
-        r.update(kind=PHONG, c1=m.diffuse_color, c2=m.specular_color, c3=m.reflective_color,
-                 c4=m.transparent_color, eta=m.index_of_refraction, exponent=m.exponent)
+        lobes = np.array([m.diffuse_color, m.specular_color, m.reflective_color, m.transparent_color])
+        lobes = lobes / max(1.0, float(lobes.sum(axis=0).max()))  # energy conservation (module docstring)
+        r.update(kind=PHONG, c1=lobes[0], c2=lobes[1], c3=lobes[2], c4=lobes[3], eta=m.index_of_refraction,
+                 exponent=m.exponent)
     elif isinstance(m, Diffuse):
         r.update(kind=DIFFUSE, c1=m.reflectance)
     elif isinstance(m, Dielectric):
