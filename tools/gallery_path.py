@@ -11,7 +11,10 @@ import sys
 import time
 from pathlib import Path
 
+from PIL import Image
+
 import durer
+from durer.io.images import encode_srgb
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images"
@@ -21,6 +24,12 @@ SCENES = {
     "path_caustic": (ROOT / "examples" / "caustic.xml", {}),
     "path_course_7_05": (COURSE / "assignment7" / "scene7_05_glass_sphere.txt", {"max_depth": 12}),
 }
+
+
+def save_small(path: Path, color) -> None:
+    """sRGB PNG with an adaptive 256-colour palette: path-traced noise makes full-colour PNGs ~90 KB, this ~40 KB."""
+    pixels = Image.fromarray(encode_srgb(color))
+    pixels.quantize(256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(path, optimize=True)
 
 
 def main() -> int:
@@ -38,7 +47,7 @@ def main() -> int:
         start = time.perf_counter()
         scene = durer.load(path, mesh_path=[str(d) for d in sorted(COURSE.glob("assignment*"))])
         r = durer.render(scene, a.size, a.size, integrator="path", samples=a.samples, **extra)
-        r.save(OUT / f"{name}.png")
+        save_small(OUT / f"{name}.png", r.color)
         print(f"{name}: {a.size}x{a.size}, {a.samples} spp, {time.perf_counter() - start:.1f} s", file=sys.stderr)
     return 0
 
