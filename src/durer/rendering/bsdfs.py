@@ -27,7 +27,7 @@ import numpy as np
 
 from ..scene.bsdfs import Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughPlastic, Surface, TwoSided
 from ..scene.materials import PhongMaterial
-from .sampling import cosine_hemisphere, frame, to_world
+from .sampling import cosine_hemisphere, dot, frame, length, normalize, to_world
 
 DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK = range(8)
 ROUGH_RES = 64  # cos(theta) samples of the rough plastic's transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
@@ -180,13 +180,13 @@ def ggx_g1(v: np.ndarray, m: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.n
     z2 = np.maximum(v[:, 2] ** 2, 1e-300)
     lam = 0.5 * (-1.0 + np.sqrt(1.0 + ((au * v[:, 0]) ** 2 + (av * v[:, 1]) ** 2) / z2))
     g = 1.0 / (1.0 + lam)
-    return np.where((v * m).sum(1) * v[:, 2] > 0, g, 0.0)
+    return np.where(dot(v, m) * v[:, 2] > 0, g, 0.0)
 
 
 def ggx_sample_visible(wi: np.ndarray, u: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.ndarray:
     """Microfacet normals distributed as D_wi(m) = G1(wi, m) max(0, wi.m) D(m) / cos(theta_i) (Heitz 2018)."""
     vh = np.column_stack([au * wi[:, 0], av * wi[:, 1], wi[:, 2]])
-    vh /= np.linalg.norm(vh, axis=1, keepdims=True)
+    vh /= length(vh)[:, None]
     lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
     inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-300)), 0.0)
     t1 = np.where((lensq > 0)[:, None], np.column_stack([-vh[:, 1] * inv, vh[:, 0] * inv, np.zeros(len(vh))]),
@@ -200,11 +200,11 @@ def ggx_sample_visible(wi: np.ndarray, u: np.ndarray, au: np.ndarray, av: np.nda
     p2 = (1.0 - s) * np.sqrt(np.maximum(0.0, 1.0 - p1 * p1)) + s * p2
     nh = p1[:, None] * t1 + p2[:, None] * t2 + np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))[:, None] * vh
     m = np.column_stack([au * nh[:, 0], av * nh[:, 1], np.maximum(nh[:, 2], 1e-12)])
-    return m / np.linalg.norm(m, axis=1, keepdims=True)
+    return normalize(m)
 
 
 def _reflect(wi: np.ndarray, m: np.ndarray) -> np.ndarray:
-    return 2.0 * (wi * m).sum(1, keepdims=True) * m - wi
+    return 2.0 * dot(wi, m)[:, None] * m - wi
 
 
 def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: int = 64) -> np.ndarray:
@@ -216,7 +216,7 @@ def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: i
     for i, c in enumerate(mu):
         wi = np.tile([np.sqrt(1.0 - c * c), 0.0, c], (len(g), 1))
         m = ggx_sample_visible(wi, g, a, a)
-        c_im = (wi * m).sum(1)
+        c_im = dot(wi, m)
         f, cos_t, _, eta_ti = fresnel(c_im, eta)
         if transmit:
             wo = (eta_ti * c_im + cos_t)[:, None] * m - eta_ti[:, None] * wi
@@ -307,12 +307,12 @@ def _roughconductor_eval(t, s, wi, wo):
     au, av = t.alpha_u[s], t.alpha_v[s]
     ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
     h = wi + wo
-    h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+    h /= np.maximum(length(h), 1e-300)[:, None]
     d = ggx_d(h, au, av)
     g1i = ggx_g1(wi, h, au, av)
     g = g1i * ggx_g1(wo, h, au, av)
     cos_i = np.maximum(wi[:, 2], 1e-300)
-    f = fresnel_conductor((wi * h).sum(1), t.c3[s], t.c4[s]) * t.c1[s]
+    f = fresnel_conductor(dot(wi, h), t.c3[s], t.c4[s]) * t.c1[s]
     value = f * np.where(ok, d * g / (4.0 * cos_i), 0.0)[:, None]
     pdf = np.where(ok, d * g1i / (4.0 * cos_i), 0.0)
     return value, pdf
@@ -323,7 +323,7 @@ def _roughconductor_sample(t, s, wi, u1, u2):
     m = ggx_sample_visible(wi, u2, au, av)
     wo = _reflect(wi, m)
     ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    weight = t.c1[s] * fresnel_conductor((wi * m).sum(1), t.c3[s], t.c4[s]) * (ggx_g1(wo, m, au, av) * ok)[:, None]
+    weight = t.c1[s] * fresnel_conductor(dot(wi, m), t.c3[s], t.c4[s]) * (ggx_g1(wo, m, au, av) * ok)[:, None]
     _, pdf = _roughconductor_eval(t, s, wi, wo)
     return wo, weight, pdf, np.zeros(len(s), bool), np.ones(len(s))
 
@@ -385,12 +385,12 @@ def _roughplastic_eval(t, s, wi, wo):
     ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
     eta = t.eta[s]
     h = wi + wo
-    h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+    h /= np.maximum(length(h), 1e-300)[:, None]
     d = ggx_d(h, au, au)
     g1i = ggx_g1(wi, h, au, au)
     g = g1i * ggx_g1(wo, h, au, au)
     cos_i = np.maximum(wi[:, 2], 1e-300)
-    f = fresnel((wi * h).sum(1), eta)[0]
+    f = fresnel(dot(wi, h), eta)[0]
     spec = t.c2[s] * (f * d * g / (4.0 * cos_i))[:, None]
     ti, to = _transmittance(t, s, wi[:, 2]), _transmittance(t, s, wo[:, 2])
     c = np.where(ok, wo[:, 2], 0.0)
@@ -422,7 +422,7 @@ def _phong_lobe(t, s, wi, wo):
     """Normalised Phong value (without ks) and pdf of wo about the mirror direction of wi (front-side frame)."""
     e = t.exponent[s]
     r = wi * np.array([-1.0, -1.0, 1.0])
-    c = np.clip((r * wo).sum(1), 0.0, 1.0)
+    c = np.clip(dot(r, wo), 0.0, 1.0)
     ce = c ** e
     return (e + 2.0) / (2.0 * np.pi) * ce, (e + 1.0) / (2.0 * np.pi) * ce
 

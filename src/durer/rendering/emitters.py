@@ -23,7 +23,7 @@ from ..accel.compile import CompiledScene
 from ..scene.graph import Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, PointLight
 from .bsdfs import BSDFTable
-from .sampling import frame, to_world, uniform_cone, uniform_cone_pdf, uniform_sphere, uniform_triangle
+from .sampling import dot, frame, length, to_world, uniform_cone, uniform_cone_pdf, uniform_sphere, uniform_triangle
 
 AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT = range(5)
 
@@ -115,7 +115,7 @@ class Emitters:
         n = len(p)
         if kind == POINT:
             to = data["position"] - p
-            dist = np.linalg.norm(to, axis=1)
+            dist = length(to)
             a, b, c = data["attenuation"]
             w = le[None, :] / (a + b * dist + c * dist * dist)[:, None]
             return to / dist[:, None], dist, w, np.full(n, np.inf)
@@ -138,9 +138,9 @@ class Emitters:
             y, normal, pdf, inside = self._sphere_point(data, p, u)
             area_pdf = pdf
         to = y - p
-        dist = np.linalg.norm(to, axis=1)
+        dist = length(to)
         d = to / np.maximum(dist, 1e-300)[:, None]
-        cos_l = -(d * normal).sum(1)
+        cos_l = -dot(d, normal)
         ok = (cos_l > 0) & (dist > 0)
         if kind == AREA_SPHERE:
             pdf = np.where(inside, area_pdf * dist * dist / np.maximum(cos_l, 1e-300), area_pdf)
@@ -156,7 +156,7 @@ class Emitters:
         area from inside (pdf per area). Returns point, its emitting normal, pdf and the inside mask."""
         c, r = data["center"], data["radius"]
         to_c = c - p
-        dc = np.linalg.norm(to_c, axis=1)
+        dc = length(to_c)
         inside = dc <= r * (1.0 + 1e-9)
         axis = to_c / np.maximum(dc, 1e-300)[:, None]
         sin2 = np.minimum((r / np.maximum(dc, 1e-300)) ** 2, 1.0)
@@ -164,7 +164,7 @@ class Emitters:
         s, t = frame(axis)
         d = to_world(uniform_cone(u, cos_max), s, t, axis)
         # nearest intersection of p + x d with the sphere (the tangent ray when rounding misses it)
-        b = (d * to_c).sum(1)
+        b = dot(d, to_c)
         disc = np.maximum(b * b - (dc * dc - r * r), 0.0)
         x = b - np.sqrt(disc)
         y_out = p + x[:, None] * d
@@ -187,13 +187,13 @@ class Emitters:
                 out[sel] = 1.0 / (4.0 * np.pi)
                 continue
             to = y[sel] - p_prev[sel]
-            dist2 = (to * to).sum(1)
-            cos_l = np.abs((to * normal[sel]).sum(1)) / np.sqrt(np.maximum(dist2, 1e-300))
+            dist2 = dot(to, to)
+            cos_l = np.abs(dot(to, normal[sel])) / np.sqrt(np.maximum(dist2, 1e-300))
             if kind == AREA_MESH:
                 out[sel] = dist2 / np.maximum(data["area"] * cos_l, 1e-300)
             else:
                 c, r = data["center"], data["radius"]
-                dc = np.linalg.norm(c - p_prev[sel], axis=1)
+                dc = length(c - p_prev[sel])
                 inside = dc <= r * (1.0 + 1e-9)
                 cos_max = np.sqrt(1.0 - np.minimum((r / np.maximum(dc, 1e-300)) ** 2, 1.0))
                 out[sel] = np.where(inside, dist2 / np.maximum(4.0 * np.pi * r * r * cos_l, 1e-300),

@@ -19,7 +19,7 @@ from . import film
 from .bsdfs import BSDFTable, eval_pdf, sample
 from .emitters import Emitters
 from .raycaster import RenderContext
-from .sampling import frame, key, power_heuristic, sobol_pair, to_local, to_world, uniform
+from .sampling import dot, frame, key, max3, normalize, power_heuristic, sobol_pair, to_local, to_world, uniform
 from .texturing import leaf_weights
 
 BATCH = 1 << 16        # paths per wavefront: whole passes of small images together (2^14 -> 2^16: 1.5x faster)
@@ -64,7 +64,7 @@ class PathTracer:
         L = np.zeros((n, 3))
         first_t, first_n = np.full(n, np.inf), np.zeros((n, 3))
         idx = np.arange(n)
-        o, d = origins.copy(), directions / np.linalg.norm(directions, axis=1, keepdims=True)
+        o, d = origins.copy(), normalize(directions)
         thr, eta = np.ones((n, 3)), np.ones(n)
         prev_pdf, prev_delta, prev_p = np.ones(n), np.ones(n, bool), origins.copy()
         tmin: float | np.ndarray = t_min
@@ -83,7 +83,7 @@ class PathTracer:
             if hit.any():
                 h = np.flatnonzero(hit)
                 ns = ng[h] * np.where(tb.flip[slot[h]], -1.0, 1.0)[:, None]
-                front = (ns * d[h]).sum(1) < 0
+                front = dot(ns, d[h]) < 0
                 emitted[h] = tb.emission[slot[h]] * front[:, None]
                 eid = np.full(len(h), -1, np.int64)
                 tri = hits.kind[h] == TRIANGLE
@@ -121,7 +121,7 @@ class PathTracer:
             ns = ng * np.where(tb.flip[slot], -1.0, 1.0)[:, None]
             ts, tt = frame(ns)
             wi = to_local(-d, ts, tt, ns)
-            scale = 1e-7 * (1.0 + np.abs(p).max(1, keepdims=True))
+            scale = 1e-7 * (1.0 + max3(np.abs(p))[:, None])
             # --- next-event estimation (light sampling's share of MIS)
             smooth = tb.smooth(slot)
             if em.count and smooth.any():
@@ -131,10 +131,10 @@ class PathTracer:
                 wo = to_local(ld, ts[s], tt[s], ns[s])
                 f, bpdf = eval_pdf(tb, slot[s], wi[s], wo)
                 contrib = thr[s] * f * lw * np.where(np.isinf(lpdf), 1.0, power_heuristic(lpdf, bpdf))[:, None]
-                live = np.flatnonzero((contrib.max(1) > 0) & (lpdf > 0))
+                live = np.flatnonzero((max3(contrib) > 0) & (lpdf > 0))
                 if len(live):
                     q = s[live]
-                    so = p[q] + scale[q] * ng[q] * np.sign((ld[live] * ng[q]).sum(1))[:, None]
+                    so = p[q] + scale[q] * ng[q] * np.sign(dot(ld[live], ng[q]))[:, None]
                     tmax = np.where(np.isinf(ldist[live]), np.inf, ldist[live] * (1.0 - 1e-6) - scale[q, 0])
                     blocked = ctx.accel.any_hit(so, ld[live], t_min=0.0, t_max=tmax)
                     L[idx[q]] += contrib[live] * ~blocked[:, None]
@@ -147,14 +147,14 @@ class PathTracer:
             eta = eta * beta
             depth += 1
             if self.rr_depth <= depth:
-                q = np.minimum(thr.max(1) * eta * eta, 0.95)
+                q = np.minimum(max3(thr) * eta * eta, 0.95)
                 survive = uniform(keys[idx], _dim(depth - 1, 2)) < q
                 thr = np.where(survive[:, None], thr / np.maximum(q, 1e-300)[:, None], 0.0)
-            alive = np.flatnonzero(thr.max(1) > 0)
+            alive = np.flatnonzero(max3(thr) > 0)
             idx, p, ng, wo, thr, eta = idx[alive], p[alive], ng[alive], wo[alive], thr[alive], eta[alive]
             prev_pdf, prev_delta, prev_p = bpdf[alive], delta[alive], p
-            o = p + scale[alive] * ng * np.sign((wo * ng).sum(1))[:, None]
-            d = wo / np.linalg.norm(wo, axis=1, keepdims=True)
+            o = p + scale[alive] * ng * np.sign(dot(wo, ng))[:, None]
+            d = normalize(wo)
             tmin = 0.0
         return L, first_t, first_n
 

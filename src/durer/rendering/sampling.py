@@ -52,11 +52,31 @@ def sobol_pair(pixel_keys: np.ndarray, sample: np.ndarray, dim: int) -> np.ndarr
     return out
 
 
+# --- small vector helpers: NumPy's reductions along a length-3 axis are 5-20x slower than these -----------------
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot products of (N,3) arrays."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def max3(a: np.ndarray) -> np.ndarray:
+    """Row-wise maximum of an (N,3) array."""
+    return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
+
+
+def length(a: np.ndarray) -> np.ndarray:
+    """Row-wise Euclidean length (N,) of an (N,3) array."""
+    return np.sqrt(dot(a, a))
+
+
+def normalize(a: np.ndarray) -> np.ndarray:
+    return a / length(a)[:, None]
+
+
 # --- warps --------------------------------------------------------------------------------------------------------
 def cosine_hemisphere(u: np.ndarray) -> np.ndarray:
     """(N,2) -> (N,3) directions about +z with pdf cos(theta) / pi (Malley: the concentric disk lifted)."""
     d = concentric_disk(u)
-    z = np.sqrt(np.maximum(0.0, 1.0 - (d ** 2).sum(axis=1)))
+    z = np.sqrt(np.maximum(0.0, 1.0 - d[:, 0] ** 2 - d[:, 1] ** 2))
     return np.column_stack([d, z])
 
 
@@ -115,7 +135,7 @@ def frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def to_local(v: np.ndarray, s: np.ndarray, t: np.ndarray, n: np.ndarray) -> np.ndarray:
-    return np.column_stack([(v * s).sum(1), (v * t).sum(1), (v * n).sum(1)])
+    return np.column_stack([dot(v, s), dot(v, t), dot(v, n)])
 
 
 def to_world(v: np.ndarray, s: np.ndarray, t: np.ndarray, n: np.ndarray) -> np.ndarray:
