@@ -11,6 +11,8 @@ the thread count and batch size.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from ..accel.hits import geometric_normals, hit_materials
@@ -24,6 +26,7 @@ from .texturing import leaf_weights
 
 BATCH = 1 << 16        # paths per wavefront: whole passes of small images together (2^14 -> 2^16: 1.5x faster)
 MAX_BOUNCES = 1024     # a hard stop for unbounded paths whose throughput never falls (e.g. weights >= 1)
+WORKERS = 2            # wavefronts shaded at once (NumPy frees the GIL)
 DIMS = 8               # random dimensions per bounce (see _dim)
 PIXEL_KEY = 0xFFFFFFFF  # the sample index of a pixel's own key (Sobol scrambles), never a real sample index
 
@@ -195,26 +198,34 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
     row_all, col_all = np.divmod(np.arange(count), width)
     # a wavefront holds BATCH paths: whole passes (all pixels, several samples each) when the image is small
     per_pass = max(1, min(options.samples, BATCH // max(count, 1)))
+    jobs = []
     for first in range(0, options.samples, per_pass):
-        passes = min(per_pass, options.samples - first)
-        total = count * passes
-        for lo in range(0, total, BATCH):
-            flat = np.arange(lo, min(total, lo + BATCH))
-            sidx, pix = np.divmod(flat, count)
-            sidx = sidx + first
-            off = sobol_pair(key(options.seed, pix, np.full(len(pix), PIXEL_KEY)), sidx, 0)
-            row, col = row_all[pix], col_all[pix]
-            pts = np.column_stack([col + off[:, 0], height - 1 - row + off[:, 1]])
-            o, d, valid = camera.generate_rays(pts, width, height)
-            color = np.zeros((len(pix), 3))
-            v = np.flatnonzero(valid)
-            t_first, n_first = np.full(len(pix), np.inf), np.zeros((len(pix), 3))
-            if len(v):
-                color[v], t_first[v], n_first[v] = tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v])
+        total = count * min(per_pass, options.samples - first)
+        jobs += [(first, lo, min(total, lo + BATCH)) for lo in range(0, total, BATCH)]
+
+    def run(job):
+        first, lo, hi = job
+        sidx, pix = np.divmod(np.arange(lo, hi), count)
+        sidx = sidx + first
+        off = sobol_pair(key(options.seed, pix, np.full(len(pix), PIXEL_KEY)), sidx, 0)
+        row, col = row_all[pix], col_all[pix]
+        pts = np.column_stack([col + off[:, 0], height - 1 - row + off[:, 1]])
+        o, d, valid = camera.generate_rays(pts, width, height)
+        color = np.zeros((len(pix), 3))
+        v = np.flatnonzero(valid)
+        t_first, n_first = np.full(len(pix), np.inf), np.zeros((len(pix), 3))
+        if len(v):
+            color[v], t_first[v], n_first[v] = tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v])
+        return pts, row, col, pix, sidx, color, t_first, n_first
+
+    # NumPy releases the GIL in its loops: WORKERS wavefronts shade at once; results are splatted in job order, so
+    # the image does not depend on which finishes first
+    with ThreadPoolExecutor(WORKERS, thread_name_prefix="durer-path") as pool:
+        for pts, row, col, pix, sidx, color, t_first, n_first in pool.map(run, jobs):
             s0 = sidx == 0
             depth[pix[s0]], normals[pix[s0]] = t_first[s0], n_first[s0]
             _splat(options, pts, row, col, color, width, height, radius, acc, wsum)
-        bar.update(passes)
+            bar.update(len(pix) / count)
     out = np.divide(acc, wsum[:, None], out=np.zeros_like(acc), where=wsum[:, None] > 0)
     return out, depth, normals
 
