@@ -14,7 +14,8 @@ translate, rotate, scale) and ref.
 Known differences, by design: a disk becomes a fan of DISK_SEGMENTS triangles (area 0.01% short of the circle's,
 below the noise of any render here); meshes are shaded with face normals (vertex normals of OBJ/PLY files are not
 interpolated); the gaussian filter's stddev becomes durer's gaussian sigma (durer cuts it at 2 sigma, Mitsuba at
-4); near_clip becomes the camera rays' t_min (Mitsuba measures it along the view axis).
+4); near_clip becomes the camera rays' t_min (Mitsuba measures it along the view axis); far_clip is read but not
+applied (geometry beyond it stays visible; Mitsuba's default is 10^4); every sampler type is durer's own sampler.
 """
 
 from __future__ import annotations
