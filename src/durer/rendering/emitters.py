@@ -168,7 +168,7 @@ class Emitters:
         disc = np.maximum(b * b - (dc * dc - r * r), 0.0)
         x = b - np.sqrt(disc)
         y_out = p + x[:, None] * d
-        y_in = c + r * _unit_sphere_points(u)
+        y_in = c + r * uniform_sphere(u)
         y = np.where(inside[:, None], y_in, y_out)
         normal = (y - c) / r
         if data["flip"]:
@@ -199,10 +199,6 @@ class Emitters:
                 out[sel] = np.where(inside, dist2 / np.maximum(4.0 * np.pi * r * r * cos_l, 1e-300),
                                     uniform_cone_pdf(cos_max))
         return out / max(self.count, 1)
-
-
-def _unit_sphere_points(u: np.ndarray) -> np.ndarray:
-    return uniform_sphere(u)
 
 
 def _world_sphere(cs: CompiledScene, k: int) -> tuple[np.ndarray, float]:

@@ -53,9 +53,7 @@ class PathTracer:
         self.max_depth, self.rr_depth, self.hide = o.max_depth, o.rr_depth, o.hide_emitters
         # course scenes show the background colour to camera rays that escape (the environment only lights)
         self.background = None if scene.radiometric_lights else scene.background_color
-        tri_em = self.emitters.triangle_emitter
-        self._tri_em = tri_em
-        self._sph_em = self.emitters.sphere_emitter
+        self._tri_em, self._sph_em = self.emitters.triangle_emitter, self.emitters.sphere_emitter
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
         """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
