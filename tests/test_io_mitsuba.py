@@ -143,3 +143,41 @@ def test_cli_renders_xml_to_exr(tmp_path):
         rgb = f.channels()["RGB"].pixels
     assert rgb.shape == (6, 8, 3)
     np.testing.assert_allclose(rgb.reshape(-1, 3).max(0), [2, 3, 4])
+
+
+@pytest.mark.parametrize("kind", ["ply", "obj"])
+def test_mesh_files_through_trimesh(tmp_path, kind):
+    trimesh = pytest.importorskip("trimesh")
+    box = trimesh.creation.box(extents=(2, 2, 2))
+    box.export(tmp_path / f"box.{kind}")
+    p = write(tmp_path, f'<shape type="{kind}"><string name="filename" value="box.{kind}"/>'
+                        '<boolean name="flip_normals" value="true"/><transform name="to_world">'
+                        '<translate x="1" y="2" z="3"/></transform></shape>')
+    s = durer.load(p)
+    t = s.group.objects[0]
+    assert len(t.object.faces) == 12 and s.materials[t.object.material].flip_normals
+    np.testing.assert_allclose(t.matrix[:3, 3], [1, 2, 3])
+    np.testing.assert_allclose(np.abs(t.object.vertices).max(), 1.0)
+
+
+def test_shapes_become_durer_geometry(tmp_path):
+    from durer.io.mitsuba_scene import DISK_SEGMENTS
+
+    p = write(tmp_path, '<shape type="rectangle"/><shape type="cube"/><shape type="disk"/>'
+                        '<shape type="sphere"><float name="radius" value="2"/></shape>')
+    rect, cube, disk, sphere = (o.object for o in durer.load(p).group.objects)
+
+    def area(m):
+        v = m.vertices[m.faces]
+        return 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum()
+
+    def outward(m):  # every face normal points away from the origin (Mitsuba's orientation)
+        v = m.vertices[m.faces]
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        return (np.einsum("ij,ij->i", n, v.mean(axis=1)) > 0).all()
+
+    assert area(rect) == pytest.approx(4) and (np.cross(*(rect.vertices[rect.faces[:, 1:]] -
+                                                          rect.vertices[rect.faces[:, :1]]).transpose(1, 0, 2))[:, 2] > 0).all()
+    assert area(cube) == pytest.approx(24) and outward(cube)
+    assert area(disk) == pytest.approx(np.pi, rel=1.1e-4) and len(disk.faces) == DISK_SEGMENTS
+    assert sphere.radius == 2
