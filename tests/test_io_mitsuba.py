@@ -96,6 +96,10 @@ ERRORS = [
      "</shape>", 3, "unknown int_ior 'unobtainium'"),
     ("<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"Zz\"/></bsdf></shape>", 3,
      "unknown conductor material 'Zz'"),
+    ("<emitter type=\"envmap\">\n<string name=\"filename\" value=\"sky.exr\"/></emitter>", 4,
+     "environment map not found: sky.exr"),
+    ("<emitter type=\"envmap\"/>", 3, "envmap needs a filename"),
+    ("<emitter type=\"constant\"/>\n<emitter type=\"constant\"/>", 4, "only one constant or envmap emitter"),
 ]
 
 

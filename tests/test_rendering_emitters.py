@@ -81,3 +81,39 @@ def test_course_lights_are_scaled_by_pi_and_ambient_becomes_the_environment():
     em = Emitters.build(scene, compile_scene(scene), BSDFTable.from_materials(scene.materials))
     np.testing.assert_allclose(em.radiance[0], math.pi)
     np.testing.assert_allclose(em.environment, 0.2)
+
+
+def _sky(h=16, w=32):
+    v = (np.arange(h)[:, None] + 0.5) / h
+    u = (np.arange(w)[None, :] + 0.5) / w
+    img = np.zeros((h, w, 3))
+    img[..., 0], img[..., 1], img[..., 2] = 0.3 + 0.5 * u, 0.4 * (1 - v), 0.8 * (1 - v) + 0.1
+    img[3:5, 20:22] = [40.0, 35.0, 30.0]  # a small sun
+    return img
+
+
+def test_environment_map_sampling_is_a_density_and_matches_its_pdf():
+    from durer.rendering.envmap import EnvMapLight
+    from durer.rendering.sampling import uniform_sphere
+    from durer.scene.lights import EnvironmentMap
+    from durer.scene.transforms import rotate
+
+    light = EnvMapLight(EnvironmentMap(_sky(), 2.0, rotate((0, 1, 0), 30)))
+    rng = np.random.default_rng(5)
+    d = uniform_sphere(rng.random((N, 2)))
+    # integrates to one: pdf * sin(theta) is constant on each cell of the 32 x 15 texel grid (texel centres at
+    # u = (i + 1/2) / 32), so the midpoint rule on 4 x 4 points per cell is exact up to rounding
+    th = (np.arange(15 * 4) + 0.5) / (15 * 4) * np.pi
+    ph = ((np.arange(32 * 4) + 0.5) / 4 + 0.5) / 32 * 2 * np.pi
+    tt, pp = np.meshgrid(th, ph, indexing="ij")
+    local = np.column_stack([(np.sin(tt) * np.sin(pp)).ravel(), np.cos(tt).ravel(), -(np.sin(tt) * np.cos(pp)).ravel()])
+    grid = local @ rotate((0, 1, 0), 30)[:3, :3].T
+    total = (light.pdf(grid) * np.sin(tt).ravel()).sum() * (np.pi / 60) * (2 * np.pi / 128)
+    assert total == pytest.approx(1.0, rel=1e-9)
+    s, pdf = light.sample(rng.random((N, 2)))
+    np.testing.assert_allclose(light.pdf(s), pdf, rtol=1e-9)
+    # importance sampling and uniform sampling estimate the same irradiance-like integral of L over the sphere
+    by_pdf = (light.eval(s) / pdf[:, None]).mean(axis=0)
+    uniform = (light.eval(d) * 4 * np.pi).mean(axis=0)
+    np.testing.assert_allclose(by_pdf, uniform, rtol=0.03)
+    assert (light.eval(s) / pdf[:, None]).std(axis=0)[0] < (light.eval(d) * 4 * np.pi).std(axis=0)[0] / 3

@@ -131,3 +131,32 @@ def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:
         pixels = np.repeat(pixels[:, :, None], 3, axis=2)
     image = Image.fromarray(np.ascontiguousarray(pixels), mode="RGB")
     write_atomic(path, lambda f: image.save(f, format=EIGHT_BIT[ext]))
+
+
+def read_hdr(path: str) -> np.ndarray:
+    """A float image (H, W, C) from .exr (openexr), .pfm or .npy: environment maps. Raises ValueError naming the
+    problem (unknown extension, unreadable file, no RGB channels)."""
+    ext = os.path.splitext(path)[1].lower()
+    try:
+        if ext == ".npy":
+            return np.asarray(np.load(path), dtype=np.float64)
+        if ext == ".pfm":
+            with open(path, "rb") as f:
+                kind = f.readline().strip()
+                w, h = (int(x) for x in f.readline().split())
+                scale = float(f.readline())
+                c = 3 if kind == b"PF" else 1
+                data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4", count=w * h * c)
+            return data.reshape(h, w, c)[::-1].astype(np.float64)
+        if ext == ".exr":
+            exr = _openexr()
+            with exr.File(path) as f:
+                ch = f.channels()
+                if "RGB" in ch or "RGBA" in ch:
+                    return np.asarray(ch.get("RGB", ch.get("RGBA")).pixels, dtype=np.float64)
+                if all(k in ch for k in "RGB"):
+                    return np.stack([np.asarray(ch[k].pixels, dtype=np.float64) for k in "RGB"], axis=-1)
+                raise ValueError(f"no RGB channels (found {', '.join(ch)})")
+    except (OSError, ValueError) as e:
+        raise ValueError(f"cannot read image '{path}': {e}") from None
+    raise ValueError(f"cannot read image '{path}': use .exr, .pfm or .npy for an environment map")

@@ -8,8 +8,8 @@ rfilter box/tent/gaussian, pixel_format, component_format) and a sampler (sample
 maps onto durer's own Owen-scrambled Sobol stream); shapes obj, ply, rectangle, cube, sphere, disk (to_world,
 flip_normals, filename, center, radius; nested or referenced bsdf; nested area emitter); bsdfs diffuse,
 dielectric, conductor, roughconductor, plastic, roughplastic (ggx only), twosided; emitters area, point,
-directional, constant; properties float, integer, boolean, string, rgb, point, vector, transform (lookat, matrix,
-translate, rotate, scale) and ref.
+directional, constant, envmap (filename .exr/.pfm/.npy, scale, to_world); properties float, integer, boolean,
+string, rgb, point, vector, transform (lookat, matrix, translate, rotate, scale) and ref.
 
 Known differences, by design: a disk becomes a fan of DISK_SEGMENTS triangles (area 0.01% short of the circle's,
 below the noise of any render here); meshes are shaded with face normals (vertex normals of OBJ/PLY files are not
@@ -282,7 +282,7 @@ _DICT_TYPES = {
     "sampler": ("independent", "stratified", "multijitter", "orthogonal", "ldsampler"),
     "shape": ("obj", "ply", "rectangle", "cube", "sphere", "disk"),
     "bsdf": ("diffuse", "dielectric", "conductor", "roughconductor", "plastic", "roughplastic", "twosided"),
-    "emitter": ("area", "point", "directional", "constant"),
+    "emitter": ("area", "point", "directional", "constant", "envmap"),
 }
 
 

@@ -11,8 +11,9 @@ import numpy as np
 from ..scene import bsdfs as B
 from ..scene.cameras import PerspectiveCamera
 from ..scene.graph import Group, Scene, Transform
-from ..scene.lights import ConstantEnvironment, DirectionalLight, PointLight
+from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
 from ..scene.shapes import Sphere, TriangleMesh
+from .images import read_hdr
 
 DISK_SEGMENTS = 256
 _ROUGH = ("alpha", "alpha_u", "alpha_v", "distribution", "sample_visible")
@@ -270,17 +271,38 @@ class Builder:
             d = d if d is not None else (m[:3, 2] if m is not None else np.array([0.0, 0.0, 1.0]))
             out = _call(node, DirectionalLight, d, B.rgb(p.get("irradiance", 1.0)))
             self.lights.append(out)
-        elif t == "constant":
+        elif t in ("constant", "envmap"):
             if self.environment is not None:
-                raise node.error("a scene can have only one constant emitter")
-            out = _call(node, ConstantEnvironment, p.get("radiance", 1.0))
+                raise node.error("a scene can have only one constant or envmap emitter")
+            if t == "constant":
+                out = _call(node, ConstantEnvironment, p.get("radiance", 1.0))
+            else:
+                out = self._envmap(node, p)
             self.environment = out
         else:
-            raise node.error(f"unsupported emitter '{t}' (use area, point, directional or constant)")
+            raise node.error(f"unsupported emitter '{t}' (use area, point, directional, constant or envmap)")
         if node.children:
             raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in an emitter")
         p.done()
         return out
+
+    def _envmap(self, node, p) -> EnvironmentMap:
+        filename = p.get("filename", None)
+        scale = p.get("scale", 1.0, float)
+        m = p.get("to_world", np.eye(4), "matrix")
+        if not filename:
+            raise node.error("envmap needs a filename (.exr, .pfm or .npy)")
+        r = m[:3, :3]
+        if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+            raise node.error("envmap to_world must be a rotation")
+        path = filename if os.path.isabs(filename) else os.path.join(self.base_dir, filename)
+        if not os.path.isfile(path):
+            raise node.error(f"environment map not found: {filename}", p.where("filename"))
+        try:
+            image = read_hdr(path)
+        except ValueError as e:
+            raise node.error(str(e), p.where("filename")) from None
+        return _call(node, EnvironmentMap, image, scale, m, path)
 
     def shape(self, node) -> None:
         p = _Props(node)

@@ -21,11 +21,12 @@ import numpy as np
 
 from ..accel.compile import CompiledScene
 from ..scene.graph import Scene
-from ..scene.lights import ConstantEnvironment, DirectionalLight, PointLight
+from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
 from .bsdfs import BSDFTable
+from .envmap import EnvMapLight
 from .sampling import dot, frame, length, to_world, uniform_cone, uniform_cone_pdf, uniform_sphere, uniform_triangle
 
-AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT = range(5)
+AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP = range(6)
 
 
 @dataclass
@@ -37,8 +38,19 @@ class Emitters:
     data: list = field(default_factory=list)                # per emitter: kind-specific parameters (below)
     triangle_emitter: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # virtual triangle -> id
     sphere_emitter: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))    # sphere -> id or -1
-    environment: np.ndarray | None = None                   # radiance of escaping rays (lighting)
+    environment: np.ndarray | None = None                   # constant radiance of escaping rays (lighting)
+    envmap: EnvMapLight | None = None                       # or an environment map
     environment_id: int = -1
+
+    @property
+    def has_environment(self) -> bool:
+        return self.environment_id >= 0
+
+    def environment_radiance(self, d: np.ndarray) -> np.ndarray:
+        """Radiance (N,3) of the environment seen along directions d (N,3)."""
+        if self.envmap is not None:
+            return self.envmap.eval(d)
+        return np.tile(self.environment, (len(d), 1))
 
     @property
     def count(self) -> int:
@@ -86,6 +98,10 @@ class Emitters:
             e.environment = env.radiance
             e.environment_id = e.count
             e._add(ENVIRONMENT, env.radiance, {})
+        elif isinstance(env, EnvironmentMap):
+            e.envmap = EnvMapLight(env)
+            e.environment_id = e.count
+            e._add(ENVMAP, np.zeros(3), {})
         return e
 
     def _add(self, kind: int, radiance, data: dict) -> None:
@@ -121,6 +137,10 @@ class Emitters:
             return to / dist[:, None], dist, w, np.full(n, np.inf)
         if kind == DIRECTIONAL:
             return np.tile(-data["direction"], (n, 1)), np.full(n, np.inf), np.tile(le, (n, 1)), np.full(n, np.inf)
+        if kind == ENVMAP:
+            d, pdf = self.envmap.sample(u)
+            w = self.envmap.eval(d) / np.maximum(pdf, 1e-300)[:, None]
+            return d, np.full(n, np.inf), np.where((pdf > 0)[:, None], w, 0.0), pdf
         if kind == ENVIRONMENT:
             d = uniform_sphere(u)
             return d, np.full(n, np.inf), np.tile(le * 4.0 * np.pi, (n, 1)), np.full(n, 1.0 / (4.0 * np.pi))
@@ -185,6 +205,9 @@ class Emitters:
             kind, data = self.kind[e], self.data[e]
             if kind == ENVIRONMENT:
                 out[sel] = 1.0 / (4.0 * np.pi)
+                continue
+            if kind == ENVMAP:
+                out[sel] = self.envmap.pdf(y[sel] - p_prev[sel])
                 continue
             to = y[sel] - p_prev[sel]
             dist2 = dot(to, to)

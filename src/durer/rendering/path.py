@@ -93,8 +93,8 @@ class PathTracer:
                 eid[sph] = self._sph_em[hits.prim[h][sph]]
                 em_id[h] = np.where(front, eid, -1)
             miss = ~hit
-            if miss.any() and em.environment is not None:
-                emitted[miss] = em.environment
+            if miss.any() and em.has_environment:
+                emitted[miss] = em.environment_radiance(d[miss])
                 em_id[miss] = em.environment_id
             if depth == 0 and self.background is not None:
                 emitted[miss] = self.background

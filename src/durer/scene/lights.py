@@ -3,7 +3,7 @@ environment (the path tracer's sky; Mitsuba's `constant` emitter)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,3 +58,27 @@ class ConstantEnvironment:
         if self.radiance.size != 3 or not np.isfinite(self.radiance).all() or self.radiance.min() < 0:
             raise ValueError(f"environment radiance must be one or three finite non-negative numbers, "
                              f"got {self.radiance.tolist()}")
+
+
+@dataclass
+class EnvironmentMap:
+    """Radiance at infinity from a latitude-longitude image (H, W, 3), Mitsuba's `envmap` convention: in the map's
+    own frame (`to_world`, a rotation) the direction (x, y, z) reads the image at u = atan2(x, -z) / 2 pi (column,
+    wrapping), v = acos(y) / pi (row 0 at the top, y up), bilinearly; `scale` multiplies it."""
+
+    image: np.ndarray
+    scale: float = 1.0
+    to_world: np.ndarray = field(default_factory=lambda: np.eye(4))
+    source: str | None = None
+
+    def __post_init__(self):
+        self.image = np.asarray(self.image, dtype=np.float64)
+        if self.image.ndim == 2:
+            self.image = np.repeat(self.image[:, :, None], 3, axis=2)
+        if self.image.ndim != 3 or self.image.shape[2] not in (3, 4) or min(self.image.shape[:2]) < 2:
+            raise ValueError(f"an environment map needs an (H, W, 3) image of at least 2 x 2, got {self.image.shape}")
+        self.image = np.ascontiguousarray(self.image[:, :, :3])
+        if not np.isfinite(self.image).all() or self.image.min() < 0:
+            raise ValueError("environment map values must be finite and non-negative")
+        self.scale = float(self.scale)
+        self.to_world = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)
