@@ -230,8 +230,13 @@ def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: i
 
 # --- dispatch -----------------------------------------------------------------------------------------------------
 def _groups(t: BSDFTable, slot: np.ndarray):
+    """(kind, rows) for each BSDF kind among the slots; rows is a slice (no copies) when there is only one kind."""
     kind = t.kind[slot]
-    for k in np.unique(kind):
+    kinds = np.unique(kind)
+    if len(kinds) == 1:
+        yield int(kinds[0]), slice(None)
+        return
+    for k in kinds:
         yield int(k), np.flatnonzero(kind == k)
 
 

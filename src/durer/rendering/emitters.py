@@ -117,10 +117,13 @@ class Emitters:
         d, dist, w, pdf = np.zeros((n, 3)), np.full(n, np.inf), np.zeros((n, 3)), np.zeros(n)
         if not self.count or not n:
             return d, dist, w, pdf
-        pick = np.minimum((u_pick * self.count).astype(np.int64), self.count - 1)
-        for em in np.unique(pick):
-            sel = np.flatnonzero(pick == em)
-            d[sel], dist[sel], w[sel], pdf[sel] = self._sample_one(int(em), p[sel], u[sel])
+        if self.count == 1:  # one emitter: no picking, no copies
+            d, dist, w, pdf = self._sample_one(0, p, u)
+        else:
+            pick = np.minimum((u_pick * self.count).astype(np.int64), self.count - 1)
+            for em in np.unique(pick):
+                sel = np.flatnonzero(pick == em)
+                d[sel], dist[sel], w[sel], pdf[sel] = self._sample_one(int(em), p[sel], u[sel])
         finite = np.isfinite(pdf)
         pdf[finite] /= self.count
         w *= self.count

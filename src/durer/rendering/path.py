@@ -126,7 +126,7 @@ class PathTracer:
             # --- next-event estimation (light sampling's share of MIS)
             smooth = tb.smooth(slot)
             if em.count and smooth.any():
-                s = np.flatnonzero(smooth)
+                s = slice(None) if smooth.all() else np.flatnonzero(smooth)  # a slice copies nothing
                 ld, ldist, lw, lpdf = em.sample(p[s], uniform(keys[idx[s]], _dim(depth, 0)),
                                                 sobol_pair(pkeys[idx[s]], sample_index[idx[s]], _pair(depth, 0)))
                 wo = to_local(ld, ts[s], tt[s], ns[s])
@@ -134,7 +134,7 @@ class PathTracer:
                 contrib = thr[s] * f * lw * np.where(np.isinf(lpdf), 1.0, power_heuristic(lpdf, bpdf))[:, None]
                 live = np.flatnonzero((max3(contrib) > 0) & (lpdf > 0))
                 if len(live):
-                    q = s[live]
+                    q = live if isinstance(s, slice) else s[live]
                     so = p[q] + scale[q] * ng[q] * np.sign(dot(ld[live], ng[q]))[:, None]
                     tmax = np.where(np.isinf(ldist[live]), np.inf, ldist[live] * (1.0 - 1e-6) - scale[q, 0])
                     blocked = ctx.accel.any_hit(so, ld[live], t_min=0.0, t_max=tmax)
