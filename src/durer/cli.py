@@ -217,7 +217,8 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-depth", type=int, default=None, metavar="N",
                    help="path tracer: longest path (1 emitters, 2 direct light, -1 unbounded; default: the scene's)")
     p.add_argument("--samples", type=_positive_int, default=None, metavar="N",
-                   help="samples per pixel, jittered when N > 1 (default: 1, the pixel centre)")
+                   help="samples per pixel, jittered when N > 1 (default: the scene's sampler, else 1, the pixel "
+                        "centre)")
     p.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="sample pattern when --samples > 1 (default: jittered)")
     p.add_argument("--filter", default=None, metavar="NAME[:WIDTH]",

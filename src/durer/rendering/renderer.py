@@ -94,7 +94,7 @@ def choose_integrator(options: RenderOptions):
     options.integrator names (the path tracer is driven by render() itself: rendering/path.py)."""
     if options.integrator == "raycast":
         return raycast
-    if options.integrator in ("whitted", "path"):
+    if options.integrator == "whitted":
         return whitted
     if options.visualize_grid:  # -visualize_grid (grid.py): draw the occupied grid cells instead
         return visualize_grid
