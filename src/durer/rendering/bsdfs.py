@@ -232,7 +232,7 @@ def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: i
 def _groups(t: BSDFTable, slot: np.ndarray):
     """(kind, rows) for each BSDF kind among the slots; rows is a slice (no copies) when there is only one kind."""
     kind = t.kind[slot]
-    kinds = np.unique(kind)
+    kinds = np.flatnonzero(np.bincount(kind, minlength=BLACK + 1))  # a count, not a sort
     if len(kinds) == 1:
         yield int(kinds[0]), slice(None)
         return
