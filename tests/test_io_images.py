@@ -98,3 +98,29 @@ def test_written_files_get_the_usual_permissions(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert (tmp_path / "x.png").stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_exr_keeps_floats_colour_and_grey(tmp_path):
+    exr = pytest.importorskip("OpenEXR", reason="the openexr package writes .exr")
+    from durer.io.images import save_image as save
+
+    rgb = np.random.default_rng(0).random((5, 7, 3)).astype(np.float32) * 100
+    grey = np.arange(35, dtype=np.float32).reshape(5, 7)
+    save(str(tmp_path / "c.exr"), rgb)
+    save(str(tmp_path / "g.exr"), grey)
+    with exr.File(str(tmp_path / "c.exr")) as f:
+        np.testing.assert_array_equal(f.channels()["RGB"].pixels, rgb)
+    with exr.File(str(tmp_path / "g.exr")) as f:
+        np.testing.assert_array_equal(f.channels()["Y"].pixels, grey)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.exr", "g.exr"]  # no temporary file left
+
+
+def test_exr_without_the_package_is_a_clear_error(tmp_path, monkeypatch):
+    import sys
+
+    from durer.io.images import save_image as save
+
+    monkeypatch.setitem(sys.modules, "OpenEXR", None)  # import fails as if not installed
+    with pytest.raises(UsageError, match="needs the openexr package"):
+        save(str(tmp_path / "c.exr"), np.zeros((2, 2, 3)))
+    assert not list(tmp_path.iterdir())

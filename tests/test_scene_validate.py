@@ -25,7 +25,7 @@ def scene(objects, materials=None, **kw) -> durer.Scene:
     (lambda: scene([durer.Sphere((0, 0, 0), 1)], lights=[(0, 0, 1)]),
      r"scene\.lights\[0\]: expected one of DirectionalLight, PointLight, SpotLight, got tuple"),
     (lambda: scene([durer.Sphere((0, 0, 0), 1)], materials=[durer.PhongMaterial(), (1, 0, 0)]),
-     r"scene\.materials\[1\]: expected a PhongMaterial or a solid texture"),
+     r"scene\.materials\[1\]: expected a PhongMaterial, a solid texture"),
     (lambda: scene([durer.Sphere((0, 0, 0), 1)], materials=[durer.Checkerboard(0, 2)]),
      r"scene\.materials\[0\] \(Checkerboard\) material2: material 2 out of range"),
     (lambda: durer.Scene(camera=None, group=durer.Group([])), r"scene\.camera: expected one of .*got NoneType"),

@@ -55,9 +55,17 @@ def load(path: str | os.PathLike, mesh_path: list[str] | None = None, camera: st
     return scene
 
 
+def load_dict(scene: dict, mesh_path: list[str] | None = None) -> Scene:
+    """Build a scene from a Python dict with the structure of Mitsuba 3's mi.load_dict (io/mitsuba.py's subset),
+    without importing Mitsuba. Raises SceneError naming the culprit."""
+    from .io.mitsuba import load_dict as _load_dict
+
+    return _load_dict(scene, mesh_path)
+
+
 __all__ = [
     "Checkerboard", "DirectionalLight", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
     "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane",
     "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight", "Transform",
-    "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "preview", "render", "transforms",
+    "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "load_dict", "preview", "render", "transforms",
 ]

@@ -16,7 +16,7 @@ import time
 
 from .errors import DurerError, UsageError
 from .io.images import check_writable
-from .options import ACCELERATORS, FILTERS, SAMPLERS, RenderOptions
+from .options import ACCELERATORS, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions
 
 EXIT_USAGE = 2
 
@@ -192,7 +192,8 @@ def run_course(argv: list[str]) -> int:
 # --- the modern command --------------------------------------------------------------------------------------
 def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] | None = (512, 512),
                      size_help: str = "image width and height in pixels (default: 512 512)") -> None:
-    """The flags every rendering command shares (render, explain, preview): size, shading, sampling, meshes."""
+    """The flags every rendering command shares (render, explain, preview): size, shading, sampling, meshes.
+    Flags a scene may set itself (integrator, max depth, samples, filter) default to None: the scene's or durer's."""
     p.add_argument("--size", nargs=2, type=_positive_int, default=size_default, metavar=("W", "H"), help=size_help)
     p.add_argument("--shade-back", action=argparse.BooleanOptionalAction, default=True,
                    help="light back faces too (default; --no-shade-back paints them black, as the course did)")
@@ -201,13 +202,19 @@ def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] |
                    help="maximum depth of reflection and refraction rays (default: 0)")
     p.add_argument("--weight", type=_number, default=0.01, metavar="W",
                    help="stop rays whose contribution is below W (default: 0.01)")
-    p.add_argument("--samples", type=_positive_int, default=1, metavar="N",
-                   help="samples per pixel, jittered when N > 1 (default: 1, the pixel centre)")
+    p.add_argument("--integrator", choices=INTEGRATORS, default=None,
+                   help="auto (ray caster, or Whitted with --shadows/--bounces) or path (path tracer); "
+                        "default: the scene's own (Mitsuba scenes: path), else auto")
+    p.add_argument("--max-depth", type=int, default=None, metavar="N",
+                   help="path tracer: longest path (1 emitters, 2 direct light, -1 unbounded; default: the scene's)")
+    p.add_argument("--samples", type=_positive_int, default=None, metavar="N",
+                   help="samples per pixel, jittered when N > 1 (default: the scene's sampler, else 1, the pixel "
+                        "centre)")
     p.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="sample pattern when --samples > 1 (default: jittered)")
-    p.add_argument("--filter", default="box", metavar="NAME[:WIDTH]",
+    p.add_argument("--filter", default=None, metavar="NAME[:WIDTH]",
                    help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
-                        "pixels, e.g. gaussian:0.4 (default: box:0.5)")
+                        "pixels, e.g. gaussian:0.4 (default: the scene's, else box:0.5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
     p.add_argument("--accel", choices=ACCELERATORS, default="bvh",
                    help="how rays find their closest hit: bvh, the bounding volume hierarchy (default), or brute, "
@@ -216,22 +223,36 @@ def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] |
                    help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
 
 
-def render_options(a: argparse.Namespace) -> RenderOptions:
-    """RenderOptions from the flags of add_render_flags (UsageError on a bad --filter)."""
+def render_options(a: argparse.Namespace, scene_defaults: dict | None = None) -> RenderOptions:
+    """RenderOptions from the flags of add_render_flags over a scene's own defaults (Mitsuba scenes: integrator,
+    sampler, film); a flag given wins. UsageError on a bad flag."""
     from .rendering.renderer import parse_filter
 
+    opts = {k: v for k, v in (scene_defaults or {}).items() if k not in ("width", "height")}
+    if a.filter is not None:
+        try:
+            name, radius = parse_filter(a.filter)
+        except ValueError as e:
+            raise UsageError(f"--filter: {e}") from None
+        if name not in FILTERS:
+            raise UsageError(f"--filter: unknown filter {name!r} (use one of {', '.join(FILTERS)})")
+        if radius is not None and not radius > 0:
+            raise UsageError("--filter: the width must be positive")
+        opts["filter"], opts["filter_radius"] = name, radius if radius is not None else 0.5
+    if a.max_depth is not None and a.max_depth < -1:
+        raise UsageError("--max-depth: must be -1 (unbounded) or a non-negative integer")
+    opts.update(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight, seed=a.seed,
+                accel=a.accel)
+    given = {"integrator": a.integrator, "max_depth": a.max_depth, "samples": a.samples}
+    opts.update({k: v for k, v in given.items() if v is not None})
+    samples = opts.setdefault("samples", 1)
+    opts["sampler"] = a.sampler or ("jittered" if samples > 1 else "uniform")
     try:
-        name, radius = parse_filter(a.filter)
+        options = RenderOptions(**opts)
+        options.validate()
     except ValueError as e:
-        raise UsageError(f"--filter: {e}") from None
-    if name not in FILTERS:
-        raise UsageError(f"--filter: unknown filter {name!r} (use one of {', '.join(FILTERS)})")
-    if radius is not None and not radius > 0:
-        raise UsageError("--filter: the width must be positive")
-    sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
-    return RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
-                         samples=a.samples, sampler=sampler, filter=name,
-                         filter_radius=radius if radius is not None else 0.5, seed=a.seed, accel=a.accel)
+        raise UsageError(str(e)) from None
+    return options
 
 
 def render_parser() -> argparse.ArgumentParser:
@@ -239,11 +260,12 @@ def render_parser() -> argparse.ArgumentParser:
                 usage="durer render SCENE -o OUT [options] (see --help)",
                 description="Render a scene file to an image (colour, and optionally depth and normals).",
                 epilog="Image formats by extension: .png .tga .ppm .bmp (8-bit), .npy .pfm (raw float arrays: "
-                       "linear colour, t, normals). Exit status 2 on any user error.")
-    p.add_argument("scene", help="scene file: a model (.glb .gltf .obj .ply .stl .off) or a MIT 6.837 scene")
+                       "linear colour, t, normals), .exr (OpenEXR). Exit status 2 on any user error.")
+    p.add_argument("scene", help="scene file: a MIT 6.837 scene, a Mitsuba 3 scene (.xml) or a model (.glb .gltf "
+                                 ".obj .ply .stl .off)")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
-    add_render_flags(p, size_default=None, size_help="image width and height in pixels (default: 512 512, or 512 "
-                     "on the longer side in the aspect ratio of a glTF camera)")
+    add_render_flags(p, size_default=None, size_help="image width and height in pixels (default: the scene's film, "
+                     "else 512 512, or 512 on the longer side in the aspect ratio of a glTF camera)")
     p.add_argument("--camera", metavar="NAME|INDEX",
                    help="which camera of a glTF file to render through (default: its first)")
     p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
@@ -259,25 +281,26 @@ def run_render(argv: list[str]) -> int:
     from .rendering.renderer import check_size, render
 
     a = render_parser().parse_args(argv)
-    opts = render_options(a)
+    render_options(a)  # a bad flag is reported before anything is read
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load
 
     if a.size is not None:
-        check_size(a.size[0], a.size[1], a.samples)
+        check_size(a.size[0], a.size[1], a.samples or 1)
     scene = load(a.scene, mesh_path=a.mesh_path, camera=a.camera)
-    if a.size is None:
-        a.size = _default_size(scene.camera)
+    options = render_options(a, scene.render_defaults)
+    film = scene.render_defaults
+    size = a.size or ((film["width"], film["height"]) if "width" in film else _default_size(scene.camera))
     start = time.perf_counter()
-    result = render(scene, a.size[0], a.size[1], options=opts, quiet=a.quiet)
+    result = render(scene, size[0], size[1], options=options, quiet=a.quiet)
     result.save(a.output, course=a.linear)
     if depth:
         result.save_depth(depth[2], depth[0], depth[1])
     if a.normals:
         result.save_normals(a.normals)
     if not a.quiet:
-        print(f"durer: wrote {a.output} ({a.size[0]}x{a.size[1]}, {time.perf_counter() - start:.2f} s)",
+        print(f"durer: wrote {a.output} ({size[0]}x{size[1]}, {time.perf_counter() - start:.2f} s)",
               file=sys.stderr)
     return 0
 

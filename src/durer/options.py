@@ -7,6 +7,7 @@ from dataclasses import dataclass
 SAMPLERS = ("uniform", "random", "jittered")
 FILTERS = ("box", "tent", "gaussian")
 ACCELERATORS = ("bvh", "brute")
+INTEGRATORS = ("auto", "raycast", "whitted", "path")
 
 
 @dataclass
@@ -28,6 +29,11 @@ class RenderOptions:
     grid: tuple[int, int, int] | None = None  # use the course's uniform grid instead of the BVH (-grid)
     visualize_grid: bool = False  # draw the grid's occupied cells instead of the objects (-visualize_grid)
     stats: bool = False           # count rays, intersections and grid cells (-stats)
+    # the path tracer (rendering/path.py); "auto" is the ray caster, or Whitted with shadows or bounces
+    integrator: str = "auto"      # auto | raycast | whitted | path
+    max_depth: int = -1           # path: Mitsuba's max_depth (1 emitters only, 2 direct light, -1 unbounded)
+    rr_depth: int = 5             # path: Russian roulette from this depth on
+    hide_emitters: bool = False   # path: camera rays do not see emitters (nor the environment)
 
     def validate(self) -> None:
         if self.bounces < 0:
@@ -46,5 +52,11 @@ class RenderOptions:
             raise ValueError(f"unknown accelerator {self.accel!r} (use one of {', '.join(ACCELERATORS)})")
         if self.grid is not None and self.accel != "bvh":
             raise ValueError(f"the course's grid replaces the accelerator: give grid or accel={self.accel!r}, not both")
+        if self.integrator not in INTEGRATORS:
+            raise ValueError(f"unknown integrator {self.integrator!r} (use one of {', '.join(INTEGRATORS)})")
+        if int(self.max_depth) != self.max_depth or self.max_depth < -1:
+            raise ValueError(f"max_depth must be -1 (unbounded) or a non-negative integer, got {self.max_depth}")
+        if int(self.rr_depth) != self.rr_depth or self.rr_depth < 1:
+            raise ValueError(f"rr_depth must be a positive integer, got {self.rr_depth}")
         if self.grid is not None and (len(self.grid) != 3 or min(self.grid) < 1):
             raise ValueError(f"grid needs three positive cell counts, got {self.grid}")

@@ -1,6 +1,7 @@
 """Image output: colour, depth and normal visualisations, written atomically by file extension.
 
-8-bit formats (PNG, TGA, PPM, BMP) go through Pillow; `.npy` and `.pfm` keep the raw float arrays.
+8-bit formats (PNG, TGA, PPM, BMP) go through Pillow; `.npy`, `.pfm` and `.exr` (OpenEXR, through the optional
+`openexr` package: `pip install durer[exr]`) keep the raw float arrays.
 Course outputs are quantised as the course's Image class does: clamp to [0, 1], multiply by 255, truncate
 (no transfer curve). Native outputs are sRGB-encoded and rounded, as image viewers expect.
 """
@@ -18,7 +19,7 @@ from ..errors import UsageError
 # TgaImagePlugin is imported to register TGA: Pillow would otherwise import every plugin (~45 ms) on the
 # first TGA save; PNG, PPM and BMP are registered by Image.preinit.
 EIGHT_BIT = {".png": "PNG", ".tga": "TGA", ".ppm": "PPM", ".bmp": "BMP"}
-RAW = (".npy", ".pfm")
+RAW = (".npy", ".pfm", ".exr")
 EXTENSIONS = tuple(EIGHT_BIT) + RAW
 
 
@@ -61,6 +62,33 @@ def _write_pfm(f, data: np.ndarray) -> None:
     h, w = data.shape[:2]
     f.write(f"{'PF' if colour else 'Pf'}\n{w} {h}\n-1.0\n".encode("ascii"))
     f.write(np.ascontiguousarray(data[::-1]).tobytes())  # PFM rows run bottom to top
+
+
+def _openexr():
+    try:
+        import OpenEXR
+    except ImportError:
+        raise UsageError("writing .exr needs the openexr package (pip install openexr, or durer[exr])") from None
+    return OpenEXR
+
+
+def _write_exr(path: str, data: np.ndarray) -> None:
+    """Float32 OpenEXR, ZIP-compressed: RGB for colour, Y for one channel; written beside and renamed."""
+    exr = _openexr()
+    pixels = np.ascontiguousarray(data, dtype=np.float32)
+    channels = {"RGB" if pixels.ndim == 3 else "Y": pixels}
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".durer-", suffix=".exr", dir=directory)
+    os.close(fd)
+    try:
+        with exr.File({"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage}, channels) as f:
+            f.write(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def _umask() -> int:
@@ -123,8 +151,40 @@ def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:
     if ext == ".pfm":
         write_atomic(path, lambda f: _write_pfm(f, data))
         return
+    if ext == ".exr":
+        _write_exr(path, data)
+        return
     pixels = quantize_course(data) if course else encode_srgb(data)
     if pixels.ndim == 2:
         pixels = np.repeat(pixels[:, :, None], 3, axis=2)
     image = Image.fromarray(np.ascontiguousarray(pixels), mode="RGB")
     write_atomic(path, lambda f: image.save(f, format=EIGHT_BIT[ext]))
+
+
+def read_hdr(path: str) -> np.ndarray:
+    """A float image (H, W, C) from .exr (openexr), .pfm or .npy: environment maps. Raises ValueError naming the
+    problem (unknown extension, unreadable file, no RGB channels)."""
+    ext = os.path.splitext(path)[1].lower()
+    try:
+        if ext == ".npy":
+            return np.asarray(np.load(path), dtype=np.float64)
+        if ext == ".pfm":
+            with open(path, "rb") as f:
+                kind = f.readline().strip()
+                w, h = (int(x) for x in f.readline().split())
+                scale = float(f.readline())
+                c = 3 if kind == b"PF" else 1
+                data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4", count=w * h * c)
+            return data.reshape(h, w, c)[::-1].astype(np.float64)
+        if ext == ".exr":
+            exr = _openexr()
+            with exr.File(path) as f:
+                ch = f.channels()
+                if "RGB" in ch or "RGBA" in ch:
+                    return np.asarray(ch.get("RGB", ch.get("RGBA")).pixels, dtype=np.float64)
+                if all(k in ch for k in "RGB"):
+                    return np.stack([np.asarray(ch[k].pixels, dtype=np.float64) for k in "RGB"], axis=-1)
+                raise ValueError(f"no RGB channels (found {', '.join(ch)})")
+    except (OSError, ValueError) as e:
+        raise ValueError(f"cannot read image '{path}': {e}") from None
+    raise ValueError(f"cannot read image '{path}': use .exr, .pfm or .npy for an environment map")

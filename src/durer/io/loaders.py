@@ -24,6 +24,12 @@ def _model(path: str, mesh_path: list[str] | None) -> Scene:
     return load_model(path, mesh_path)
 
 
+def _mitsuba(path: str, mesh_path: list[str] | None) -> Scene:
+    from .mitsuba import load_mitsuba
+
+    return load_mitsuba(path, mesh_path)
+
+
 # extension (lower case, with the dot) -> reader(path, mesh_path); anything else is read as a course scene file
 LOADERS: dict[str, Loader] = {
     ".txt": _course,
@@ -34,6 +40,7 @@ LOADERS: dict[str, Loader] = {
     ".off": _model,
     ".ply": _model,
     ".stl": _model,
+    ".xml": _mitsuba,  # Mitsuba 3 scenes (io/mitsuba.py)
 }
 
 

@@ -17,6 +17,7 @@ from ..accel.hits import Accelerator
 from ..accel.stats import CountingAccelerator, RayStats
 from ..io.images import depth_visualization, encode_srgb, normal_visualization, save_image
 from ..options import RenderOptions
+from ..scene.bsdfs import BSDF, Surface
 from ..scene.cameras import frame_sphere
 from ..scene.graph import Scene
 from ..scene.validate import check_scene
@@ -25,6 +26,7 @@ from .grid_view import visualize_grid
 from .raycaster import RenderContext, SampleResult, raycast
 from .whitted import whitted
 
+PHYSICAL = (Surface, *BSDF.__args__)  # materials only the path tracer renders
 CHUNK = 1 << 13  # rays per batch: enough to keep the kernels busy, few enough for a live progress bar
 
 
@@ -114,7 +116,12 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
 
 
 def choose_integrator(options: RenderOptions):
-    """The lecture's ray caster unless the options ask for secondary rays (or for the grid's cells)."""
+    """The lecture's ray caster unless the options ask for secondary rays (or for the grid's cells), or the one
+    options.integrator names (the path tracer is driven by render() itself: rendering/path.py)."""
+    if options.integrator == "raycast":
+        return raycast
+    if options.integrator == "whitted":
+        return whitted
     if options.visualize_grid:  # -visualize_grid (grid.py): draw the occupied grid cells instead
         return visualize_grid
     if options.shadows or options.bounces > 0:
@@ -140,13 +147,13 @@ class _NoBar:
         pass
 
 
-def _progress(total: int, quiet: bool):
+def _progress(total: int, quiet: bool, unit: str = "ray"):
     """A progress bar on stderr that appears only after a second, and never when quiet or not on a terminal."""
     if quiet or not sys.stderr.isatty():
         return _NoBar()
     from tqdm import tqdm
 
-    return tqdm(total=total, unit="ray", unit_scale=True, delay=1.0, disable=False, leave=False,
+    return tqdm(total=total, unit=unit, unit_scale=unit == "ray", delay=1.0, disable=False, leave=False,
                 desc="rendering", file=sys.stderr)
 
 
@@ -177,19 +184,40 @@ def make_options(options: RenderOptions | None = None, **kwargs) -> RenderOption
     return options
 
 
-def render(scene: Scene, width: int, height: int, *, options: RenderOptions | None = None, quiet: bool = True,
-           **kwargs) -> RenderResult:
+def render(scene: Scene, width: int | None = None, height: int | None = None, *,
+           options: RenderOptions | None = None, quiet: bool = True, **kwargs) -> RenderResult:
     """Render `scene` at width x height; keyword arguments are RenderOptions fields (shade_back, shadows,
-    bounces, weight, samples, sampler, filter, seed, ...). Returns colour, depth and normal arrays."""
+    bounces, weight, samples, sampler, filter, seed, integrator, max_depth, ...). Returns colour, depth and normal
+    arrays. A scene's own render defaults (Mitsuba scenes: integrator, sampler, film) apply unless given here."""
+    defaults = dict(getattr(scene, "render_defaults", None) or {})
+    width = width if width is not None else defaults.get("width")
+    height = height if height is not None else defaults.get("height")
+    if width is None or height is None:
+        raise ValueError("give the image size (width, height): the scene does not define one")
+    if options is None:
+        kwargs = {**{k: v for k, v in defaults.items() if k not in ("width", "height")}, **kwargs}
     if int(width) != width or int(height) != height or width < 1 or height < 1:
         raise ValueError(f"image size must be positive integers, got {width} x {height}")
     width, height = int(width), int(height)
     options = make_options(options, **kwargs)
     check_size(width, height, options.samples)
+    if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in scene.materials):
+        raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
+                         "integrator='path'")
     start = time.perf_counter()
     if not quiet and kernels_cold():
         print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
-    return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+    ctx = make_context(scene, options)
+    if options.integrator == "path":  # issue 10: rendering/path.py drives its own passes, one per sample
+        from .path import render_path
+
+        with _progress(options.samples, quiet, unit="spp") as bar:
+            color, depth, normals = render_path(ctx, width, height, bar)
+        return RenderResult(color=color.reshape(height, width, 3).astype(np.float32),
+                            depth=depth.reshape(height, width).astype(np.float32),
+                            normals=normals.reshape(height, width, 3).astype(np.float32),
+                            seconds=time.perf_counter() - start)
+    return render_in(ctx, width, height, quiet=quiet, start=start)
 
 
 def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,

@@ -54,6 +54,14 @@ class Scene:
     background_color: np.ndarray = (0.0, 0.0, 0.0)
     ambient_light: np.ndarray = (0.0, 0.0, 0.0)
     source: str | None = None
+    # Path tracer additions (Mitsuba scenes): light from escaping rays (lights.ConstantEnvironment), whether light
+    # colours are radiometric (Mitsuba: point intensity W/sr, directional irradiance) rather than the course's
+    # (scaled by pi so a diffuse surface looks as in the ray caster, rendering/emitters.py), and the render's
+    # defaults the scene carries (integrator, max_depth, rr_depth, hide_emitters, samples, filter, filter_radius,
+    # width, height), which explicit render options override.
+    environment: object | None = None
+    radiometric_lights: bool = False
+    render_defaults: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.background_color = np.asarray(self.background_color, dtype=np.float64).reshape(3)

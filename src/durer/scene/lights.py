@@ -1,9 +1,10 @@
-"""Lights: directional (no falloff), point (with the course's a + b*d + c*d^2 attenuation) and spot (a point light
-limited to a cone, as glTF's KHR_lights_punctual defines it)."""
+"""Lights: directional (no falloff), point (with the course's a + b*d + c*d^2 attenuation), spot (a point light
+limited to a cone, as glTF's KHR_lights_punctual defines it), and the path tracer's skies: a constant environment
+(Mitsuba's `constant` emitter) and an environment map."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -83,3 +84,42 @@ class SpotLight:
         cos_a = -(to_light @ self.direction)
         cos_outer, cos_inner = np.cos(np.radians(self.outer_angle)), np.cos(np.radians(self.inner_angle))
         return np.clip((cos_a - cos_outer) / max(cos_inner - cos_outer, 1e-3), 0.0, 1.0) ** 2
+
+
+@dataclass
+class ConstantEnvironment:
+    """Radiance arriving from every direction at infinity (seen by rays that escape the scene)."""
+
+    radiance: np.ndarray = (1.0, 1.0, 1.0)
+
+    def __post_init__(self):
+        self.radiance = np.asarray(self.radiance, dtype=np.float64).reshape(-1)
+        if self.radiance.size == 1:
+            self.radiance = np.repeat(self.radiance, 3)
+        if self.radiance.size != 3 or not np.isfinite(self.radiance).all() or self.radiance.min() < 0:
+            raise ValueError(f"environment radiance must be one or three finite non-negative numbers, "
+                             f"got {self.radiance.tolist()}")
+
+
+@dataclass
+class EnvironmentMap:
+    """Radiance at infinity from a latitude-longitude image (H, W, 3), Mitsuba's `envmap` convention: in the map's
+    own frame (`to_world`, a rotation) the direction (x, y, z) reads the image at u = atan2(x, -z) / 2 pi (column,
+    wrapping), v = acos(y) / pi (row 0 at the top, y up), bilinearly; `scale` multiplies it."""
+
+    image: np.ndarray
+    scale: float = 1.0
+    to_world: np.ndarray = field(default_factory=lambda: np.eye(4))
+    source: str | None = None
+
+    def __post_init__(self):
+        self.image = np.asarray(self.image, dtype=np.float64)
+        if self.image.ndim == 2:
+            self.image = np.repeat(self.image[:, :, None], 3, axis=2)
+        if self.image.ndim != 3 or self.image.shape[2] not in (3, 4) or min(self.image.shape[:2]) < 2:
+            raise ValueError(f"an environment map needs an (H, W, 3) image of at least 2 x 2, got {self.image.shape}")
+        self.image = np.ascontiguousarray(self.image[:, :, :3])
+        if not np.isfinite(self.image).all() or self.image.min() < 0:
+            raise ValueError("environment map values must be finite and non-negative")
+        self.scale = float(self.scale)
+        self.to_world = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)

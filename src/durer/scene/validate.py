@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from .bsdfs import BSDF, Surface
 from .cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, PerspectiveCamera
 from .graph import Group, Scene, Transform
 from .lights import DirectionalLight, PointLight, SpotLight
@@ -14,6 +15,7 @@ CAMERAS = (OrthographicCamera, PerspectiveCamera, FisheyeCamera, PanoramaCamera)
 LIGHTS = (DirectionalLight, PointLight, SpotLight)
 SHAPES = (Sphere, Plane, Triangle, TriangleMesh)
 TEXTURES = (Checkerboard, Noise, Marble, Wood)
+PHYSICAL = (Surface, *BSDF.__args__)  # the path tracer's materials (scene/bsdfs.py)
 
 
 def _names(types: tuple) -> str:
@@ -46,9 +48,9 @@ def check_scene(scene: Scene) -> None:
         if isinstance(mat, TEXTURES):
             index(mat.material1, where + " material1")
             index(mat.material2, where + " material2")
-        elif not isinstance(mat, PhongMaterial):
-            raise ValueError(f"scene.materials[{i}]: expected a PhongMaterial or a solid texture "
-                             f"({_names(TEXTURES)}), got {type(mat).__name__}")
+        elif not isinstance(mat, (PhongMaterial, *PHYSICAL)):
+            raise ValueError(f"scene.materials[{i}]: expected a PhongMaterial, a solid texture ({_names(TEXTURES)}) "
+                             f"or a physically based material ({_names(PHYSICAL)}), got {type(mat).__name__}")
 
     stack = [(scene.group, "scene.group")]
     while stack:

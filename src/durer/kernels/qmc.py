@@ -1,0 +1,77 @@
+"""Numba kernels of the path tracer's random stream (rendering/sampling.py): splitmix64 hashes of (key, dimension)
+and Owen-scrambled Sobol pairs (Burley 2020). Every value depends only on its inputs, never on thread or order."""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .layout import JIT
+
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+_GOLD = np.uint64(0x9E3779B97F4A7C15)
+_PAIR = np.uint64(0xA0761D6478BD642F)
+_LOW = np.uint64(0xFFFFFFFF)
+_S30, _S27, _S31, _S32, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(32), np.uint64(11)
+
+
+@nb.njit(**JIT, inline="always")
+def mix64(x):
+    x = (x ^ (x >> _S30)) * _M1
+    x = (x ^ (x >> _S27)) * _M2
+    return x ^ (x >> _S31)
+
+
+@nb.njit(**JIT, inline="always")
+def _rev32(x):
+    x = ((x >> np.uint32(1)) & np.uint32(0x55555555)) | ((x & np.uint32(0x55555555)) << np.uint32(1))
+    x = ((x >> np.uint32(2)) & np.uint32(0x33333333)) | ((x & np.uint32(0x33333333)) << np.uint32(2))
+    x = ((x >> np.uint32(4)) & np.uint32(0x0F0F0F0F)) | ((x & np.uint32(0x0F0F0F0F)) << np.uint32(4))
+    x = ((x >> np.uint32(8)) & np.uint32(0x00FF00FF)) | ((x & np.uint32(0x00FF00FF)) << np.uint32(8))
+    return np.uint32((x >> np.uint32(16)) | (x << np.uint32(16)))
+
+
+@nb.njit(**JIT, inline="always")
+def _owen(x, seed):
+    """Nested uniform scramble of a 32-bit fraction (Laine-Karras permutation on the reversed bits)."""
+    x = _rev32(x)
+    x = np.uint32(x + seed)
+    x ^= np.uint32(x * np.uint32(0x6C50B47C))
+    x ^= np.uint32(x * np.uint32(0xB82F1E52))
+    x ^= np.uint32(x * np.uint32(0xC7AFE638))
+    x ^= np.uint32(x * np.uint32(0x8D22F6E6))
+    return _rev32(x)
+
+
+@nb.njit(**JIT)
+def uniform_kernel(keys, dim, out):
+    """out[i] = 53-bit float in [0, 1) from hash(keys[i], dim)."""
+    d = np.uint64(dim + 1) * _GOLD
+    for i in range(keys.shape[0]):
+        h = mix64(keys[i] + d)
+        out[i] = np.float64(h >> _S11) * (1.0 / 9007199254740992.0)
+
+
+@nb.njit(**JIT)
+def sobol_pair_kernel(pixel_keys, sample, dim, out):
+    """out[i] = Owen-scrambled Sobol point (dimensions 0 and 1) of sample[i], shuffled and scrambled by a hash of
+    (pixel_keys[i], dim)."""
+    d = np.uint64(dim + 1) * _PAIR
+    for i in range(pixel_keys.shape[0]):
+        h = mix64(pixel_keys[i] ^ d)
+        shuffle = np.uint32(h & _LOW)
+        s1 = np.uint32(h >> _S32)
+        s2 = np.uint32(mix64(h) >> _S32)
+        index = _owen(np.uint32(sample[i]), shuffle)
+        x = _rev32(index)
+        y = np.uint32(0)
+        v = np.uint32(0x80000000)
+        j = index
+        while j:
+            if j & np.uint32(1):
+                y ^= v
+            v ^= v >> np.uint32(1)
+            j >>= np.uint32(1)
+        out[i, 0] = np.float64(_owen(x, s1)) * 2.0 ** -32
+        out[i, 1] = np.float64(_owen(y, s2)) * 2.0 ** -32

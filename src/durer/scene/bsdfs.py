@@ -1,0 +1,184 @@
+"""Physically based surface descriptions (Mitsuba 3's BSDF plugins of the same names) and `Surface`, the material
+slot that binds a BSDF to a shape together with area emission and a normal flip. Plain data; the maths lives in
+rendering/bsdfs.py.
+
+Defaults are Mitsuba 3's. Colours are linear RGB triples (a number means grey).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# Complex indices of refraction (eta, k) of named metals as Mitsuba 3.5.3's `scalar_rgb` variant uses them: its
+# spectral data (data/ior/<name>.{eta,k}.spd) integrated to RGB, read back with mi.traverse(conductor). "none" is
+# Mitsuba's default, a perfect mirror (eta 0, k 1: Fresnel reflectance 1 at every angle).
+METALS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    "none": ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),
+    "Au": ((0.143036, 0.375307, 1.44205), (3.983, 2.38556, 1.60336)),
+    "Ag": ((0.155276, 0.116728, 0.138388), (4.82835, 3.12222, 2.1469)),
+    "Cu": ((0.201005, 0.92375, 1.10222), (3.91326, 2.45305, 2.14209)),
+    "Al": ((1.6575, 0.880405, 0.521244), (9.22381, 6.2695, 4.837)),
+    "Cr": ((4.36967, 2.91651, 1.6549), (5.20655, 4.23131, 3.7547)),
+}
+
+# Named indices of refraction Mitsuba accepts for int_ior / ext_ior (its ior.h table, the common subset).
+IORS: dict[str, float] = {
+    "vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1.000277, "carbon dioxide": 1.00045,
+    "water": 1.3330, "acetone": 1.36, "ethanol": 1.361, "carbon tetrachloride": 1.461, "glycerol": 1.4729,
+    "benzene": 1.501, "silicone oil": 1.52045, "bromine": 1.661, "water ice": 1.31, "fused quartz": 1.458,
+    "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046, "sodium chloride": 1.544,
+    "amber": 1.55, "pet": 1.5750, "diamond": 2.419,
+}
+
+
+def rgb(v, what: str = "colour") -> np.ndarray:
+    """A finite float64 RGB triple from a number or three numbers, or a ValueError naming `what`."""
+    a = np.asarray(v, dtype=np.float64).reshape(-1)
+    if a.size == 1:
+        a = np.repeat(a, 3)
+    if a.size != 3 or not np.isfinite(a).all():
+        raise ValueError(f"{what} must be one or three finite numbers, got {v!r}")
+    return a
+
+
+def ior(v, what: str = "index of refraction") -> float:
+    """A positive index of refraction from a number or one of Mitsuba's names (IORS)."""
+    if isinstance(v, str):
+        if v.lower() not in IORS:
+            raise ValueError(f"unknown {what} {v!r} (use a number or one of {', '.join(sorted(IORS))})")
+        return IORS[v.lower()]
+    x = float(v)
+    if not (x > 0 and np.isfinite(x)):
+        raise ValueError(f"{what} must be positive, got {v!r}")
+    return x
+
+
+def _alpha(v) -> float:
+    x = float(v)
+    if not (0 < x <= 4):
+        raise ValueError(f"roughness alpha must be in (0, 4], got {v!r}")
+    return x
+
+
+def _albedo(v, what: str) -> np.ndarray:
+    a = rgb(v, what)
+    if a.min() < 0:
+        raise ValueError(f"{what} must not be negative, got {a.tolist()}")
+    return a
+
+
+@dataclass
+class Diffuse:
+    """Lambertian reflection, one-sided (black from behind, as in Mitsuba; wrap it in TwoSided)."""
+
+    reflectance: np.ndarray = 0.5
+
+    def __post_init__(self):
+        self.reflectance = _albedo(self.reflectance, "diffuse reflectance")
+
+
+@dataclass
+class Dielectric:
+    """Smooth glass: Fresnel-weighted specular reflection and refraction (the caustic maker)."""
+
+    int_ior: float = 1.5046
+    ext_ior: float = 1.000277
+    specular_reflectance: np.ndarray = 1.0
+    specular_transmittance: np.ndarray = 1.0
+
+    def __post_init__(self):
+        self.int_ior, self.ext_ior = ior(self.int_ior, "int_ior"), ior(self.ext_ior, "ext_ior")
+        self.specular_reflectance = _albedo(self.specular_reflectance, "specular reflectance")
+        self.specular_transmittance = _albedo(self.specular_transmittance, "specular transmittance")
+
+
+@dataclass
+class Conductor:
+    """A smooth metal mirror with the Fresnel reflectance of the complex index eta + i k (per RGB channel)."""
+
+    eta: np.ndarray = 0.0
+    k: np.ndarray = 1.0
+    specular_reflectance: np.ndarray = 1.0
+
+    def __post_init__(self):
+        self.eta, self.k = _albedo(self.eta, "eta"), _albedo(self.k, "k")
+        self.specular_reflectance = _albedo(self.specular_reflectance, "specular reflectance")
+
+    @classmethod
+    def named(cls, material: str, **kw) -> Conductor:
+        if material not in METALS:
+            raise ValueError(f"unknown conductor material {material!r} (use one of {', '.join(METALS)})")
+        eta, k = METALS[material]
+        return cls(eta=eta, k=k, **kw)
+
+
+@dataclass
+class RoughConductor(Conductor):
+    """A rough metal: GGX microfacets (anisotropic with alpha_u != alpha_v), Smith shadowing, sampled from the
+    visible normals (Heitz 2018)."""
+
+    alpha_u: float = 0.1
+    alpha_v: float = 0.1
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
+
+
+@dataclass
+class Plastic:
+    """A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`)."""
+
+    diffuse_reflectance: np.ndarray = 0.5
+    specular_reflectance: np.ndarray = 1.0
+    int_ior: float = 1.49
+    ext_ior: float = 1.000277
+    nonlinear: bool = False
+
+    def __post_init__(self):
+        self.diffuse_reflectance = _albedo(self.diffuse_reflectance, "diffuse reflectance")
+        self.specular_reflectance = _albedo(self.specular_reflectance, "specular reflectance")
+        self.int_ior, self.ext_ior = ior(self.int_ior, "int_ior"), ior(self.ext_ior, "ext_ior")
+        self.nonlinear = bool(self.nonlinear)
+
+
+@dataclass
+class RoughPlastic(Plastic):
+    """A diffuse base under a rough (GGX) dielectric coating (Mitsuba's `roughplastic`)."""
+
+    alpha: float = 0.1
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.alpha = _alpha(self.alpha)
+
+
+@dataclass
+class TwoSided:
+    """The same BSDF on both sides of the surface."""
+
+    bsdf: object
+
+    def __post_init__(self):
+        if isinstance(self.bsdf, (TwoSided, Dielectric)):
+            raise ValueError(f"twosided cannot wrap a {type(self.bsdf).__name__}")
+
+
+BSDF = Diffuse | Dielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided
+
+
+@dataclass
+class Surface:
+    """What a shape's material index names under the path tracer: a BSDF (or a course PhongMaterial), the radiance
+    it emits from its front side (None: not a light) and whether its normals are flipped (Mitsuba's flip_normals)."""
+
+    bsdf: object
+    radiance: np.ndarray | None = None
+    flip_normals: bool = False
+
+    def __post_init__(self):
+        if self.radiance is not None:
+            self.radiance = _albedo(self.radiance, "radiance")
+        self.flip_normals = bool(self.flip_normals)
