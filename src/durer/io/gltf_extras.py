@@ -26,15 +26,12 @@ import numpy as np
 from ..errors import SceneError
 from ..scene.cameras import OrthographicCamera, PerspectiveCamera
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
+from .files import read_bytes
 
 
 def read_gltf_json(path: str) -> dict:
     """The glTF JSON of a .gltf file or of a .glb's first chunk; SceneError naming the file if it is not one."""
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise SceneError(f"cannot read model file: {e.strerror}", path) from None
+    data = read_bytes(path, "model file")
     if data[:4] == b"glTF":
         if len(data) < 20:
             raise SceneError("truncated .glb file", path)

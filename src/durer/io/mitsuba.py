@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..scene.graph import Scene
+from .files import read_bytes
 from .mitsuba_scene import DISK_SEGMENTS, Builder  # noqa: F401  (DISK_SEGMENTS: see the docstring)
 
 PLUGINS = ("scene", "integrator", "sensor", "film", "rfilter", "sampler", "shape", "bsdf", "emitter")
@@ -63,11 +64,7 @@ class _Elem:
 
 
 def _parse_xml(path: str) -> _Elem:
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise SceneError(f"cannot read scene file: {e.strerror}", path) from None
+    data = read_bytes(path, "scene file")
     parser = xml.parsers.expat.ParserCreate()
     stack: list[_Elem] = [_Elem("#document", {}, 1)]
 

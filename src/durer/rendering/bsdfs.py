@@ -308,15 +308,19 @@ def _conductor_sample(t, s, wi, u1, u2):
 
 
 # --- rough conductor ----------------------------------------------------------------------------------------------
-def _roughconductor_eval(t, s, wi, wo):
-    au, av = t.alpha_u[s], t.alpha_v[s]
+def _microfacet(wi, wo, au, av):
+    """The GGX terms a rough BSDF's eval needs: (both directions above the surface, half vector, D, G1(wi), G,
+    clamped cos of wi)."""
     ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
     h = wi + wo
     h /= np.maximum(length(h), 1e-300)[:, None]
     d = ggx_d(h, au, av)
     g1i = ggx_g1(wi, h, au, av)
-    g = g1i * ggx_g1(wo, h, au, av)
-    cos_i = np.maximum(wi[:, 2], 1e-300)
+    return ok, h, d, g1i, g1i * ggx_g1(wo, h, au, av), np.maximum(wi[:, 2], 1e-300)
+
+
+def _roughconductor_eval(t, s, wi, wo):
+    ok, h, d, g1i, g, cos_i = _microfacet(wi, wo, t.alpha_u[s], t.alpha_v[s])
     f = fresnel_conductor(dot(wi, h), t.c3[s], t.c4[s]) * t.c1[s]
     value = f * np.where(ok, d * g / (4.0 * cos_i), 0.0)[:, None]
     pdf = np.where(ok, d * g1i / (4.0 * cos_i), 0.0)
@@ -387,14 +391,8 @@ def _transmittance(t, s, cos):
 
 def _roughplastic_eval(t, s, wi, wo):
     au = t.alpha_u[s]
-    ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
     eta = t.eta[s]
-    h = wi + wo
-    h /= np.maximum(length(h), 1e-300)[:, None]
-    d = ggx_d(h, au, au)
-    g1i = ggx_g1(wi, h, au, au)
-    g = g1i * ggx_g1(wo, h, au, au)
-    cos_i = np.maximum(wi[:, 2], 1e-300)
+    ok, h, d, g1i, g, cos_i = _microfacet(wi, wo, au, au)
     f = fresnel(dot(wi, h), eta)[0]
     spec = t.c2[s] * (f * d * g / (4.0 * cos_i))[:, None]
     ti, to = _transmittance(t, s, wi[:, 2]), _transmittance(t, s, wo[:, 2])
