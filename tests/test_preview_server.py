@@ -132,7 +132,9 @@ def test_explain_over_the_socket_equals_explain(server, client, references):
     kinds = {key for key, _ in message["overlay"]}
     assert "camera" in kinds and kinds <= {"camera", "shadow", "blocked", "reflection", "refraction"}
     client.send(type="clear")
-    assert client.until(lambda m: m["type"] == "tree")["tree"] is None
+    # a redraw of the tree queued before the clear may still arrive first; the clear must then empty it
+    cleared = client.until(lambda m: m["type"] == "tree" and m["tree"] is None)
+    assert cleared["text"] == "" and cleared["overlay"] == []
 
 
 def test_orbit_changes_camera_and_image_and_reset_restores_them(server, client, references):
