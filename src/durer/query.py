@@ -19,7 +19,7 @@ import numpy as np
 
 from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH
 from .kernels.bvh_trace import image_width
-from .kernels.layout import SPHERE
+from .kernels.layout import SPHERE, TILE
 from .kernels.rays import first_problem, n_chunks, split_checked_rays
 
 __all__ = ["INVALID_ID", "RaycastingScene"]
@@ -42,6 +42,44 @@ def _finite_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
     if not np.isfinite(arr).all():
         raise ValueError(f"{name} contains NaN or infinity")
     return arr
+
+
+_PROBE = 16384  # leading rays looked at to find the row length of flat rays (widths up to this)
+
+
+def flat_image_width(o: np.ndarray, d: np.ndarray) -> int:
+    """The width of the image whose rows flat (N, 3) rays follow (a camera's rays reshaped to (N, 3), row by
+    row), so the kernels can trace them in 4 x 4 tiles as they do an (H, W, ...) array; 0 when they do not look
+    like one: the first jump between consecutive rays (4x the first step) must end a row whose length is a
+    multiple of 4 dividing N in whole 4-row bands, and 64 rays spread over the batch must lie as close to the
+    ray one row below as to their neighbour. Only speed depends on the answer: the packet kernels find the
+    same hits in any order (t to the bit)."""
+    n = len(o)
+    if n < TILE * TILE * 4:
+        return 0
+    k = min(n, _PROBE + 1)
+    extent = float(np.ptp(o[:257], axis=0).max())
+    scale = 1.0 / extent if extent > 0.0 else 0.0  # origins count in units of the first rays' spread
+
+    def gap(a, b):
+        return np.abs(o[a] - o[b]).sum(axis=-1) * scale + np.abs(d[a] - d[b]).sum(axis=-1)
+
+    base = float(gap(0, 1))
+    if not base > 0.0:
+        return 0
+    jumps = np.zeros(0, np.int64)
+    for m in (257, 2049, k):  # widening windows: a short row is found without looking at 16k rays
+        m = min(m, k)
+        jumps = np.flatnonzero(gap(slice(0, m - 1), slice(1, m)) > 4.0 * base)
+        if len(jumps) or m == k:
+            break
+    if len(jumps) == 0:
+        return 0
+    w = int(jumps[0]) + 1
+    if w % TILE or n % (TILE * w):
+        return 0
+    i = np.linspace(0, n - w - 1, 64).astype(np.int64)
+    return w if bool(np.all(gap(i, i + w) <= 4.0 * base)) else 0
 
 
 def _transform(matrix) -> np.ndarray:
@@ -194,6 +232,11 @@ class RaycastingScene:
             raise ValueError(f"{name} of shape {a.shape} does not broadcast to the rays' shape {lead}") from None
         return np.ascontiguousarray(a).reshape(-1)
 
+    @staticmethod
+    def _width(o, d, lead) -> int:
+        """The kernels' `width`: the image's when the rays are (H, W, ...) or flat rays follow an image's rows."""
+        return image_width(lead) if len(lead) != 1 else flat_image_width(o, d)
+
     def cast_rays(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
         """Closest hit of each ray. origins and directions (..., 3), or one (..., 6) array of both.
 
@@ -204,7 +247,7 @@ class RaycastingScene:
         """
         o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
         tree = self._tree()
-        t, inst, kind, prim, u, v = tree.closest_hit(o, d, lo, hi, image_width(lead))
+        t, inst, kind, prim, u, v = tree.closest_hit(o, d, lo, hi, self._width(o, d, lead))
         normals = tree.normals(o, d, t, inst, kind, prim)
         prim = np.where(kind == SPHERE, 0, prim).astype(np.int32)
         return {
@@ -218,7 +261,7 @@ class RaycastingScene:
     def test_occlusions(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> np.ndarray:
         """True for each ray that hits anything with t_min < t < t_max (stops at the first hit found)."""
         o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
-        out = self._tree().any_hit(o, d, lo, hi, image_width(lead))
+        out = self._tree().any_hit(o, d, lo, hi, self._width(o, d, lead))
         return out.reshape(lead)
 
     def count_intersections(self, origins, directions=None, t_min: float = 0.0,
