@@ -249,12 +249,15 @@ class RaycastingScene:
         tree = self._tree()
         t, inst, kind, prim, u, v = tree.closest_hit(o, d, lo, hi, self._width(o, d, lead))
         normals = tree.normals(o, d, t, inst, kind, prim)
-        prim = np.where(kind == SPHERE, 0, prim).astype(np.int32)
+        if any(len(shape.radius) for shape in self._shapes):
+            prim[kind == SPHERE] = 0  # a sphere is primitive 0 of its geometry
+        uv = np.empty((len(t), 2))
+        uv[:, 0], uv[:, 1] = u, v
         return {
             "t_hit": t.reshape(lead),
             "geometry_ids": inst.reshape(lead),
             "primitive_ids": prim.reshape(lead),
-            "primitive_uvs": np.stack([u, v], axis=-1).reshape(*lead, 2),
+            "primitive_uvs": uv.reshape(*lead, 2),
             "primitive_normals": normals.reshape(*lead, 3),
         }
 
