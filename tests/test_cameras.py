@@ -105,3 +105,32 @@ def test_orthographic_size_must_be_positive(kwargs):
 def test_perspective_angle_range(angle):
     with pytest.raises(ValueError, match="angle"):
         PerspectiveCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), angle=angle)
+
+
+def test_fisheye_outside_the_circle_is_background():
+    import durer
+
+    scene = durer.Scene(camera=FisheyeCamera(center=(0, 0, 0), direction=(0, 0, -1), up=(0, 1, 0), angle=180),
+                        group=durer.Group([durer.Sphere((0, 0, 0), 10)]), background_color=(0.2, 0.4, 0.6))
+    r = durer.render(scene, 16, 16)
+    assert np.allclose(r.color[0, 0], [0.2, 0.4, 0.6])  # a corner: outside the image circle, no ray
+    assert np.allclose(r.color[8, 8], [1, 1, 1])         # inside the sphere: its flat white
+    assert r.depth[0, 0] == np.inf and r.depth[8, 8] == pytest.approx(10.0)
+
+
+@pytest.mark.parametrize("shape", [(30, 20), (20, 30), (25, 25)])
+def test_frame_sphere_sees_the_whole_sphere_from_above_and_aside(shape):
+    from durer.scene.cameras import frame_sphere, pixel_centers
+
+    center, radius = np.array([3.0, -1.0, 2.0]), 1.5
+    cam = frame_sphere(center, radius, *shape)
+    to_center = center - cam.center
+    assert np.allclose(cam.direction, to_center / np.linalg.norm(to_center))
+    assert cam.direction[1] < 0 and cam.direction[0] < 0 and cam.direction[2] < 0  # from above, right, front
+    # every border pixel's ray misses the sphere; the centre ray hits it
+    _, d, _ = cam.generate_rays(pixel_centers(*shape), *shape)
+    along = (to_center[None, None] * d).sum(-1)
+    miss = np.linalg.norm(to_center[None, None] - along[..., None] * d, axis=-1)
+    border = np.concatenate([miss[0], miss[-1], miss[:, 0], miss[:, -1]])
+    assert (border > radius).all() and miss[shape[1] // 2, shape[0] // 2] < radius
+    assert (miss < radius).mean() > 0.4  # the sphere fills a good part of the image

@@ -333,3 +333,21 @@ def test_flat_camera_rays_hit_as_the_image_and_as_single_rays(sphere_mesh):
     np.testing.assert_array_equal(single, image)
     occluded = s.test_occlusions(rays[..., :3].reshape(-1, 3), rays[..., 3:].reshape(-1, 3))
     np.testing.assert_array_equal(occluded, np.isfinite(image))
+
+
+def test_list_intersections_names_the_instance_of_every_hit(sphere_mesh):
+    """Two placements of one mesh (the two-level kernels): every listed hit names the instance it was found in,
+    and a ray's first listed hit is cast_rays' closest hit, with the same geometry id."""
+    s = RaycastingScene()
+    a = s.add_triangles(sphere_mesh.vertices, sphere_mesh.faces)
+    moved = np.eye(4)
+    moved[:3, 3] = (3.0, 0.0, 0.0)
+    b = s.add_instance(a, moved)
+    o = np.array([[-5.0, 0.1, 0.03], [8.0, -0.1, 0.05], [3.05, 5.0, 0.07]])  # off vertices and edges
+    d = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    li = s.list_intersections(o, d)
+    assert np.diff(li["ray_splits"]).tolist() == [4, 4, 2]
+    per_ray = np.split(li["geometry_ids"], li["ray_splits"][1:-1])
+    assert per_ray[0].tolist() == [a, a, b, b] and per_ray[1].tolist() == [b, b, a, a] and per_ray[2].tolist() == [b, b]
+    first = li["ray_splits"][:-1]
+    np.testing.assert_array_equal(li["geometry_ids"][first], s.cast_rays(o, d)["geometry_ids"])

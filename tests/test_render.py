@@ -130,3 +130,65 @@ def test_progress_bar_only_on_a_terminal_and_never_when_quiet(monkeypatch, tty, 
     bar.close()
     if not shown:
         assert fake.text == ""
+
+
+def test_accel_brute_is_the_lecture_loop_with_the_same_results():
+    """durer.render(..., accel="brute") takes accel/brute.BruteForce, and agrees with the BVH to the bit."""
+    from durer.accel.brute import BruteForce
+    from durer.options import RenderOptions
+    from durer.rendering.renderer import make_context
+
+    scene = simple_scene(lights=[DirectionalLight(direction=(-1, -1, -1), color=(1, 1, 1))])
+    scene.group.objects.append(Plane((0, 1, 0), -1, material=0))
+    assert isinstance(make_context(scene, RenderOptions(accel="brute")).accel, BruteForce)
+    a = durer.render(scene, 20, 14, accel="brute", shadows=True, bounces=2)
+    b = durer.render(scene, 20, 14, shadows=True, bounces=2)
+    np.testing.assert_array_equal(a.color, b.color)
+    np.testing.assert_array_equal(a.depth, b.depth)
+    with pytest.raises(ValueError, match="unknown accelerator"):
+        durer.render(scene, 4, 4, accel="octree")
+    with pytest.raises(ValueError, match="not both"):
+        durer.render(scene, 4, 4, accel="brute", grid=(2, 2, 2))
+
+
+# --- issue 13: the first hour -----------------------------------------------------------------------------------
+def test_size_is_checked_before_allocating():
+    with pytest.raises(ValueError, match=r"a 100000 x 100000 image with 1 sample\(s\) per pixel would need about "
+                                         r"2\.6 TB of memory; this machine has"):
+        durer.render(simple_scene(), 100000, 100000)
+
+
+def test_compile_notice_only_on_a_cold_cache(tmp_path, monkeypatch, capsys):
+    from durer.rendering import renderer
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    assert renderer.kernels_cold(str(tmp_path / "missing"))
+    assert renderer.kernels_cold(str(tmp_path))
+    for module in renderer.COLD_CHECK:
+        (tmp_path / f"{module}.kernel-12.py311.nbi").write_bytes(b"")
+    assert not renderer.kernels_cold(str(tmp_path))
+    monkeypatch.setattr(renderer, "kernels_cold", lambda: True)
+    durer.render(simple_scene(), 2, 2, quiet=False)
+    assert capsys.readouterr().err == "durer: compiling kernels (first run only) ...\n"
+    durer.render(simple_scene(), 2, 2)  # quiet (the default from Python): no notice
+    assert capsys.readouterr().err == ""
+
+
+def test_render_result_in_a_notebook():
+    import io
+
+    from PIL import Image
+
+    from durer.io.images import encode_srgb
+
+    r = durer.render(simple_scene(lights=[DirectionalLight((0, 0, -1), (0.5, 0.5, 0.5))]), 8, 6)
+    text = repr(r)
+    assert "\n" not in text and text.startswith("<RenderResult 8x6: ") and len(text) < 120
+    srgb = r.to_srgb8()
+    assert srgb.dtype == np.uint8 and srgb.shape == (6, 8, 3)
+    assert np.array_equal(srgb, encode_srgb(r.color))
+    c = float(r.color[3, 4, 0])
+    assert 0.3 < c < 0.5 and srgb[3, 4, 0] == round(255 * (1.055 * c ** (1 / 2.4) - 0.055))  # the sRGB curve
+    png = r._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    assert np.array_equal(np.asarray(Image.open(io.BytesIO(png))), srgb)

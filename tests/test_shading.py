@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from durer.rendering.shading import light_directions, phong
-from durer.scene.lights import DirectionalLight, PointLight
+from durer.scene.lights import DirectionalLight, PointLight, SpotLight
 
 
 def unit(v) -> np.ndarray:
@@ -103,3 +103,42 @@ def test_phong_bounded_by_ks_plus_kd(v, exponent):
     lit = phong(unit(one(n)), unit(one(w)), unit(one(l)), one([1, 1, 1]), kd, ks, np.array([exponent]))
     assert np.all(lit >= 0)
     assert np.all(lit <= kd + ks + 1e-12)
+
+
+# --- spot lights (glTF's KHR_lights_punctual cone) -------------------------------------------------------------
+def _at_angle(degrees: float, distance: float = 2.0) -> np.ndarray:
+    """A point `distance` from the origin, `degrees` away from the -z axis (towards +x)."""
+    a = np.radians(degrees)
+    return one([distance * np.sin(a), 0.0, -distance * np.cos(a)])
+
+
+@pytest.mark.parametrize(("degrees", "factor"), [
+    (0.0, 1.0),                                                      # on the axis
+    (9.0, 1.0),                                                      # inside the inner cone: full strength
+    (20.0, ((np.cos(np.radians(20)) - np.cos(np.radians(30)))
+            / (np.cos(np.radians(10)) - np.cos(np.radians(30)))) ** 2),  # glTF's smooth falloff, squared
+    (31.0, 0.0),                                                     # outside the outer cone: nothing
+    (150.0, 0.0),                                                    # behind the light
+])
+def test_spot_light_cone_falloff(degrees, factor):
+    spot = SpotLight(position=(0, 0, 0), direction=(0, 0, -5), color=(1, 0.5, 0.25), inner_angle=10,
+                     outer_angle=30, attenuation=(0, 0, 1))
+    p = _at_angle(degrees)
+    to_light, color, dist = light_directions(spot, p)
+    assert np.allclose(to_light, -p / 2) and dist == pytest.approx([2.0])
+    assert np.allclose(color, np.array([[1, 0.5, 0.25]]) * factor / 4)  # inverse square at d = 2
+
+
+def test_spot_light_shades_like_a_point_light_inside_its_cone():
+    kwargs = dict(color=(0.7, 0.7, 0.7), attenuation=(1, 0.5, 0))
+    spot = SpotLight((1, 2, 3), (0, -1, 0), inner_angle=60, outer_angle=80, **kwargs)
+    point = PointLight((1, 2, 3), **kwargs)
+    p = np.array([[1.2, 0.0, 3.1], [0.5, -1.0, 2.5]])
+    for a, b in zip(light_directions(spot, p), light_directions(point, p), strict=True):
+        assert np.allclose(a, b)
+
+
+@pytest.mark.parametrize("angles", [(30, 30), (40, 30), (-1, 30), (10, 95)])
+def test_spot_light_cone_angles_are_checked(angles):
+    with pytest.raises(ValueError, match="cone angles"):
+        SpotLight((0, 0, 0), (0, 0, -1), inner_angle=angles[0], outer_angle=angles[1])

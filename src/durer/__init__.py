@@ -14,8 +14,8 @@ from .rendering.renderer import RenderResult, render
 from .scene import transforms
 from .scene.cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, PerspectiveCamera
 from .scene.graph import Group, Scene, Transform
-from .scene.lights import DirectionalLight, PointLight
-from .scene.materials import Material, PhongMaterial
+from .scene.lights import DirectionalLight, PointLight, SpotLight
+from .scene.materials import Material, PBRMaterial, PhongMaterial
 from .scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 from .scene.textures import Checkerboard, Marble, Noise, Wood
 
@@ -35,18 +35,24 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
 
 
-def load(path: str | os.PathLike, mesh_path: list[str] | None = None) -> Scene:
-    """Read a scene file, by its extension (io/loaders.py; the MIT 6.837 format by default); mesh files are looked
-    up next to it, in the working directory, then in `mesh_path` and $DURER_MESH_PATH. Raises SceneError with
-    file and line on a mistake."""
+def load(path: str | os.PathLike, mesh_path: list[str] | None = None, camera: str | int | None = None) -> Scene:
+    """Read a scene file, by its extension (io/loaders.py): model files (.glb .gltf .obj .ply .stl .off) through
+    trimesh, anything else as a MIT 6.837 scene, whose mesh files are looked up next to it, in the working
+    directory, then in `mesh_path` and $DURER_MESH_PATH. `camera` picks a glTF file's camera by name or index (the
+    first by default). Raises SceneError with file (and line) on a mistake."""
     from .io.loaders import load_scene
 
-    return load_scene(path, mesh_path)
+    scene = load_scene(path, mesh_path)
+    if camera is not None:
+        from .io.models import model_camera
+
+        scene.camera = model_camera(path, camera)
+    return scene
 
 
 __all__ = [
     "Checkerboard", "DirectionalLight", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
-    "OrthographicCamera", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight",
-    "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "Transform", "Triangle", "TriangleMesh",
-    "UsageError", "Wood", "load", "render", "transforms",
+    "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane",
+    "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight", "Transform",
+    "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "render", "transforms",
 ]

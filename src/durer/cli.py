@@ -15,8 +15,8 @@ import sys
 import time
 
 from .errors import DurerError, UsageError
-from .io.images import check_extension
-from .options import FILTERS, SAMPLERS, RenderOptions
+from .io.images import check_writable
+from .options import ACCELERATORS, FILTERS, SAMPLERS, RenderOptions
 
 EXIT_USAGE = 2
 
@@ -138,12 +138,10 @@ def _zoom(values: list[str] | None, flag: str) -> tuple[str, int] | None:
 
 
 def _check_outputs(paths: list[str]) -> None:
-    """Fail before rendering if an output cannot be written: unknown extension or missing folder."""
+    """Fail before rendering if an output cannot be written: unknown extension, missing folder, no permission,
+    a folder in the way (io/images.check_writable)."""
     for path in paths:
-        check_extension(path)
-        folder = os.path.dirname(os.path.abspath(path))
-        if not os.path.isdir(folder):
-            raise UsageError(f"cannot write '{path}': folder '{folder}' does not exist")
+        check_writable(path)
 
 
 def run_course(argv: list[str]) -> int:
@@ -198,14 +196,18 @@ def render_parser() -> argparse.ArgumentParser:
                 description="Render a scene file to an image (colour, and optionally depth and normals).",
                 epilog="Image formats by extension: .png .tga .ppm .bmp (8-bit), .npy .pfm (raw float arrays: "
                        "linear colour, t, normals). Exit status 2 on any user error.")
-    p.add_argument("scene", help="scene file (MIT 6.837 format)")
+    p.add_argument("scene", help="scene file: a model (.glb .gltf .obj .ply .stl .off) or a MIT 6.837 scene")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="colour image to write")
-    p.add_argument("--size", nargs=2, type=_positive_int, default=(512, 512), metavar=("W", "H"),
-                   help="image width and height in pixels (default: 512 512)")
+    p.add_argument("--size", nargs=2, type=_positive_int, default=None, metavar=("W", "H"),
+                   help="image width and height in pixels (default: 512 512, or 512 on the longer side in the "
+                        "aspect ratio of a glTF camera)")
     p.add_argument("--depth", nargs=3, metavar=("NEAR", "FAR", "FILE"),
                    help="also write depth: t = NEAR white, t = FAR black, misses black (.npy/.pfm: raw t)")
     p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
-    p.add_argument("--shade-back", action="store_true", help="light back faces too (else they are black)")
+    p.add_argument("--shade-back", action=argparse.BooleanOptionalAction, default=True,
+                   help="light back faces too (default; --no-shade-back paints them black, as the course did)")
+    p.add_argument("--camera", metavar="NAME|INDEX",
+                   help="which camera of a glTF file to render through (default: its first)")
     p.add_argument("--shadows", action="store_true", help="cast shadow rays to every light")
     p.add_argument("--bounces", type=_nonneg_int, default=0, metavar="N",
                    help="maximum depth of reflection and refraction rays (default: 0)")
@@ -219,6 +221,9 @@ def render_parser() -> argparse.ArgumentParser:
                    help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
                         "pixels, e.g. gaussian:0.4 (default: box:0.5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
+    p.add_argument("--accel", choices=ACCELERATORS, default="bvh",
+                   help="how rays find their closest hit: bvh, the bounding volume hierarchy (default), or brute, "
+                        "the lecture's loop over every object (kernels/brute.py; slow on large scenes)")
     p.add_argument("--linear", action="store_true",
                    help="write 8-bit colour without the sRGB curve, truncated as the course does")
     p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
@@ -228,7 +233,7 @@ def render_parser() -> argparse.ArgumentParser:
 
 
 def run_render(argv: list[str]) -> int:
-    from .rendering.renderer import parse_filter, render
+    from .rendering.renderer import check_size, parse_filter, render
 
     a = render_parser().parse_args(argv)
     try:
@@ -242,12 +247,16 @@ def run_render(argv: list[str]) -> int:
     sampler = a.sampler or ("jittered" if a.samples > 1 else "uniform")
     opts = RenderOptions(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight,
                          samples=a.samples, sampler=sampler, filter=name,
-                         filter_radius=radius if radius is not None else 0.5, seed=a.seed)
+                         filter_radius=radius if radius is not None else 0.5, seed=a.seed, accel=a.accel)
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load
 
-    scene = load(a.scene, mesh_path=a.mesh_path)
+    if a.size is not None:
+        check_size(a.size[0], a.size[1], a.samples)
+    scene = load(a.scene, mesh_path=a.mesh_path, camera=a.camera)
+    if a.size is None:
+        a.size = _default_size(scene.camera)
     start = time.perf_counter()
     result = render(scene, a.size[0], a.size[1], options=opts, quiet=a.quiet)
     result.save(a.output, course=a.linear)
@@ -261,6 +270,14 @@ def run_render(argv: list[str]) -> int:
     return 0
 
 
+def _default_size(camera, longer: int = 512) -> tuple[int, int]:
+    """512 x 512, or 512 on the longer side in the aspect ratio a glTF camera asks for (io/gltf_extras.py)."""
+    aspect = getattr(camera, "aspect_ratio", None)
+    if not aspect:
+        return longer, longer
+    return (longer, max(1, round(longer / aspect))) if aspect >= 1 else (max(1, round(longer * aspect)), longer)
+
+
 COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser)}
 USAGE = ("usage: durer {raycast,render} ...\n"
          "  durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's flags\n"
@@ -269,6 +286,19 @@ USAGE = ("usage: durer {raycast,render} ...\n"
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The `durer` command; a closed output pipe (`durer -h | head -2`) ends it quietly."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        # the reader went away: send whatever Python still wants to flush to /dev/null, then stop quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+
+
+def _main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(USAGE, file=sys.stdout if argv else sys.stderr)
@@ -294,6 +324,8 @@ def main(argv: list[str] | None = None) -> int:
     except DurerError as e:
         print(str(e), file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:
+        raise  # main() ends quietly
     except (ValueError, OSError) as e:
         print(f"durer: {e}", file=sys.stderr)
         return EXIT_USAGE

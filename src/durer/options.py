@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 SAMPLERS = ("uniform", "random", "jittered")
 FILTERS = ("box", "tent", "gaussian")
+ACCELERATORS = ("bvh", "brute")
 
 
 @dataclass
@@ -23,6 +24,7 @@ class RenderOptions:
     seed: int = 0                 # seed of the random and jittered samplers: same seed, same image
     course_random: bool = False   # random/jittered offsets from the course's drand48 stream instead (film.py)
     course_edges: bool = False    # triangles accept points just outside their edges, as the course's do (compile.py)
+    accel: str = "bvh"            # bvh | brute: the bounding volume hierarchy, or the lecture's loop over every object
     grid: tuple[int, int, int] | None = None  # use the course's uniform grid instead of the BVH (-grid)
     visualize_grid: bool = False  # draw the grid's occupied cells instead of the objects (-visualize_grid)
     stats: bool = False           # count rays, intersections and grid cells (-stats)
@@ -40,5 +42,9 @@ class RenderOptions:
             raise ValueError(f"unknown filter {self.filter!r} (use one of {', '.join(FILTERS)})")
         if not self.filter_radius > 0:
             raise ValueError(f"filter radius must be positive, got {self.filter_radius}")
+        if self.accel not in ACCELERATORS:
+            raise ValueError(f"unknown accelerator {self.accel!r} (use one of {', '.join(ACCELERATORS)})")
+        if self.grid is not None and self.accel != "bvh":
+            raise ValueError(f"the course's grid replaces the accelerator: give grid or accel={self.accel!r}, not both")
         if self.grid is not None and (len(self.grid) != 3 or min(self.grid) < 1):
             raise ValueError(f"grid needs three positive cell counts, got {self.grid}")

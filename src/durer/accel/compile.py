@@ -44,6 +44,90 @@ class CompiledScene:
     instance_mesh: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))      # (K,)
     instance_matrix: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))      # (K, 4, 4)
     instance_material: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))  # (K,)
+    # Per-corner attributes, only when some mesh has them (else empty), in the placed triangles' vertex order:
+    # texture coordinates (F, 3, 2) for `triangles` and (Fi, 3, 2) per stored mesh (zeros for meshes without UVs);
+    # shading normals (F, 3, 3) world space for `triangles`, (Fi, 3, 3) object space per stored mesh (zeros for
+    # meshes without normals: they shade with the geometric normal).
+    triangle_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2)))
+    mesh_uv: tuple = ()
+    triangle_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    mesh_normals: tuple = ()
+    # vertex colours (F, 3, 3) / (Fi, 3, 3), linear RGB (ones for meshes without colours)
+    triangle_colors: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    mesh_colors: tuple = ()
+
+    @property
+    def has_uv(self) -> bool:
+        return len(self.triangle_uv) > 0 or len(self.mesh_uv) > 0
+
+    @property
+    def has_colors(self) -> bool:
+        return len(self.triangle_colors) > 0 or len(self.mesh_colors) > 0
+
+    @property
+    def has_normals(self) -> bool:
+        return len(self.triangle_normals) > 0 or len(self.mesh_normals) > 0
+
+    def _barycentric(self, ids: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(n, 3) barycentric weights of world `points` on virtual triangles `ids` (placed vertex order)."""
+        tri = self.triangle(ids)
+        e1, e2, p = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0], points - tri[:, 0]
+        d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+        p1, p2 = (p * e1).sum(1), (p * e2).sum(1)
+        det = d11 * d22 - d12 * d12
+        det = np.where(np.abs(det) > 0, det, 1.0)
+        b1, b2 = (d22 * p1 - d12 * p2) / det, (d11 * p2 - d12 * p1) / det
+        return np.stack([1 - b1 - b2, b1, b2], axis=1)
+
+    def _corners(self, ids: np.ndarray, flat_values: np.ndarray, mesh_values: tuple, normals: bool) -> np.ndarray:
+        """(n, 3, k) corner values of virtual triangles `ids`, in world space for normals."""
+        k = flat_values.shape[2]
+        out = np.zeros((len(ids), 3, k))
+        flat = ids < len(self.triangles)
+        if len(flat_values):
+            out[flat] = flat_values[ids[flat]]
+        if not flat.all():
+            off = self.instance_offset
+            inst_of = np.searchsorted(off, ids, side="right") - 1
+            for inst in np.unique(inst_of[~flat]):
+                sel = inst_of == inst
+                m = self.instance_matrix[inst][:3, :3]
+                v = mesh_values[int(self.instance_mesh[inst])][ids[sel] - off[inst]]
+                if normals:
+                    v = v @ np.linalg.inv(m)  # rows times inv(M) = inverse transpose applied to each normal
+                out[sel] = v[:, [0, 2, 1]] if np.linalg.det(m) < 0 else v
+        return out
+
+    def _interpolated(self, ids, points: np.ndarray, present: bool, tri_attr, mesh_attr, fill: float,
+                      width: int) -> np.ndarray:
+        """A per-corner attribute interpolated barycentrically at world `points` on virtual triangles `ids`."""
+        ids = np.asarray(ids, dtype=np.int64)
+        if not present or not len(ids):
+            return np.full((len(ids), width), fill)
+        corners = self._corners(ids, tri_attr, mesh_attr, normals=False)
+        return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+
+    def uv_at(self, ids, points: np.ndarray) -> np.ndarray:
+        """Texture coordinates (n, 2) at world `points` on virtual triangles `ids` (barycentric interpolation of the
+        corners' UVs; zeros if the scene has none)."""
+        return self._interpolated(ids, points, self.has_uv, self.triangle_uv, self.mesh_uv, 0.0, 2)
+
+    def colors_at(self, ids, points: np.ndarray) -> np.ndarray:
+        """Interpolated vertex colours (n, 3) at world `points` on triangles `ids` (ones if the scene has none)."""
+        return self._interpolated(ids, points, self.has_colors, self.triangle_colors, self.mesh_colors, 1.0, 3)
+
+    def normals_at(self, ids, points: np.ndarray) -> np.ndarray:
+        """Interpolated world shading normals (n, 3) at `points` on triangles `ids`, unit length; zero rows where
+        the mesh has no normals (or they cancel), so the caller keeps the geometric normal there."""
+        ids = np.asarray(ids, dtype=np.int64)
+        if not self.has_normals or not len(ids):
+            return np.zeros((len(ids), 3))
+        corners = self._corners(ids, self.triangle_normals, self.mesh_normals, normals=True)
+        length = np.linalg.norm(corners, axis=2, keepdims=True)
+        corners = np.divide(corners, length, out=np.zeros_like(corners), where=length > 0)
+        n = np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.divide(n, length, out=np.zeros_like(n), where=length > 1e-12)
 
     @property
     def instance_offset(self) -> np.ndarray:
@@ -99,12 +183,29 @@ class CompiledScene:
         if not len(self.instance_mesh):
             return self
         tris = [self.triangles] + [self.instance_triangles(k) for k in range(len(self.instance_mesh))]
+        uv, normals = self.triangle_uv, self.triangle_normals
+        if self.has_uv:
+            uv = np.concatenate([self.triangle_uv.reshape(-1, 3, 2)] + [
+                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])), self.triangle_uv,
+                              self.mesh_uv, normals=False) for k, m in enumerate(self.instance_mesh)])
+        colors = self.triangle_colors
+        if self.has_colors:
+            colors = np.concatenate([self.triangle_colors.reshape(-1, 3, 3)] + [
+                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])),
+                              self.triangle_colors, self.mesh_colors, normals=False)
+                for k, m in enumerate(self.instance_mesh)])
+        if self.has_normals:
+            normals = np.concatenate([self.triangle_normals.reshape(-1, 3, 3)] + [
+                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])),
+                              self.triangle_normals, self.mesh_normals, normals=True)
+                for k, m in enumerate(self.instance_mesh)])
         mats = [self.triangle_material] + [np.full(len(self.mesh_triangles[m]), mat, np.int32)
                                           for m, mat in zip(self.instance_mesh, self.instance_material, strict=True)]
         return replace(self, triangles=np.ascontiguousarray(np.concatenate(tris)),
                        triangle_material=np.concatenate(mats), mesh_triangles=(),
                        instance_mesh=np.zeros(0, np.int32), instance_matrix=np.zeros((0, 4, 4)),
-                       instance_material=np.zeros(0, np.int32))
+                       instance_material=np.zeros(0, np.int32), triangle_uv=uv, mesh_uv=(),
+                       triangle_normals=normals, mesh_normals=(), triangle_colors=colors, mesh_colors=())
 
     @property
     def nbytes(self) -> int:
@@ -208,6 +309,9 @@ def compile_scene(scene: Scene) -> CompiledScene:
     sph: list[tuple] = []
     planes: list[tuple] = []
     uses: dict = {}
+    uvs: list[np.ndarray] = []  # per entry of tris: (n, 3, 2) corner UVs (zeros without)
+    nrm: list[np.ndarray] = []  # per entry of tris: (n, 3, 3) world corner normals (zeros without)
+    col: list[np.ndarray] = []  # per entry of tris: (n, 3, 3) corner colours (ones without)
 
     def count(obj) -> None:
         if isinstance(obj, Group):
@@ -220,8 +324,14 @@ def compile_scene(scene: Scene) -> CompiledScene:
             uses[key] = uses.get(key, 0) + 1
 
     count(scene.group)
+    any_uv = _any(scene.group, "uvs")  # UV arrays only when some mesh has UVs (they cost 48 bytes a triangle)
+    any_normals = _any(scene.group, "normals")  # normals only when some mesh has them (72 bytes a triangle)
+    any_colors = _any(scene.group, "colors")
     mesh_index: dict = {}
     meshes: list[np.ndarray] = []
+    mesh_uvs: list[np.ndarray] = []
+    mesh_nrm: list[np.ndarray] = []
+    mesh_col: list[np.ndarray] = []
     instances: list[tuple] = []
 
     def visit(obj, m: np.ndarray) -> None:
@@ -246,12 +356,29 @@ def compile_scene(scene: Scene) -> CompiledScene:
             if key not in mesh_index:
                 mesh_index[key] = len(meshes)
                 meshes.append(np.ascontiguousarray(obj.vertices[obj.faces]))
+                if any_uv:
+                    mesh_uvs.append(_corner_values(obj, "uvs", 2))
+                if any_normals:
+                    mesh_nrm.append(_corner_values(obj, "normals", 3))
+                if any_colors:
+                    mesh_col.append(_corner_values(obj, "colors", 3, fill=1.0))
             instances.append((mesh_index[key], m, obj.material))
         elif isinstance(obj, (Triangle, TriangleMesh)):
             if isinstance(obj, Triangle):
                 v = np.array([[obj.vertex0, obj.vertex1, obj.vertex2]])
             else:
                 v = obj.vertices[obj.faces]
+            mirror = np.linalg.det(m[:3, :3]) < 0  # corner values follow the placed vertex order (v1, v2 swap)
+            if any_uv:
+                uv = _corner_values(obj, "uvs", 2) if isinstance(obj, TriangleMesh) else np.zeros((1, 3, 2))
+                uvs.append(uv[:, [0, 2, 1]] if mirror else uv)
+            if any_normals:
+                nc = _corner_values(obj, "normals", 3) if isinstance(obj, TriangleMesh) else np.zeros((1, 3, 3))
+                nc = nc @ np.linalg.inv(m[:3, :3])  # the inverse transpose, applied to row vectors
+                nrm.append(nc[:, [0, 2, 1]] if mirror else nc)
+            if any_colors:
+                cc = _corner_values(obj, "colors", 3, fill=1.0) if isinstance(obj, TriangleMesh) else np.ones((1, 3, 3))
+                col.append(cc[:, [0, 2, 1]] if mirror else cc)
             v = _place(v, m)  # a mirror flips the winding; _place keeps the inverse-transpose normal
             tris.append(v)
             tri_mat.append(np.full(len(v), obj.material, dtype=np.int32))
@@ -274,7 +401,30 @@ def compile_scene(scene: Scene) -> CompiledScene:
         instance_mesh=np.array([i[0] for i in instances], dtype=np.int32),
         instance_matrix=np.array([i[1] for i in instances], dtype=np.float64).reshape(-1, 4, 4),
         instance_material=np.array([i[2] for i in instances], dtype=np.int32),
+        triangle_uv=np.concatenate(uvs) if any_uv and uvs else np.zeros((0, 3, 2)),
+        mesh_uv=tuple(mesh_uvs) if any_uv else (),
+        triangle_normals=np.concatenate(nrm) if any_normals and nrm else np.zeros((0, 3, 3)),
+        mesh_normals=tuple(mesh_nrm) if any_normals else (),
+        triangle_colors=np.concatenate(col) if any_colors and col else np.zeros((0, 3, 3)),
+        mesh_colors=tuple(mesh_col) if any_colors else (),
     )
+
+
+def _corner_values(mesh: TriangleMesh, name: str, k: int, fill: float = 0.0) -> np.ndarray:
+    """(F, 3, k) per-vertex values `name` (uvs, normals, colors) at each face's corners; `fill` if it has none."""
+    values = getattr(mesh, name)
+    if values is None:
+        return np.full((len(mesh.faces), 3, k), fill)
+    return np.ascontiguousarray(values[mesh.faces])
+
+
+def _any(obj, name: str) -> bool:
+    """Does any mesh below `obj` carry per-vertex `name` (uvs, normals)?"""
+    if isinstance(obj, Group):
+        return any(_any(child, name) for child in obj.objects)
+    if isinstance(obj, Transform):
+        return _any(obj.object, name)
+    return isinstance(obj, TriangleMesh) and getattr(obj, name) is not None
 
 
 def spheres_under_transform(scene: Scene) -> np.ndarray:

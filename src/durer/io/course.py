@@ -375,7 +375,12 @@ class _Parser:
         # TriangleMesh
         v, lines = _fields(t, kind, {"obj_file": _word}, ("obj_file",), line)
         path = self._find_mesh(v["obj_file"], lines["obj_file"])
-        vertices, faces = read_obj(path)
+        if path.lower().endswith(".obj"):
+            vertices, faces = read_obj(path)  # the course's OBJ subset, with file:line errors
+        else:  # any other model format trimesh reads (PLY, STL, OFF, glTF, ...)
+            from .models import read_mesh
+
+            vertices, faces = read_mesh(path)
         return TriangleMesh(vertices, faces, material, source=path)
 
     def _material_for(self, kind: str, line: int) -> int:
@@ -391,10 +396,10 @@ class _Parser:
         for candidate in candidates:
             if os.path.isfile(candidate):
                 return candidate
-        where = "next to the scene file, in the working directory"
-        if self.mesh_path:
-            where += " and in " + os.pathsep.join(self.mesh_path)
-        raise self.t.error(f"mesh file '{name}' not found (looked {where})", line)
+        where = f"looked in {os.path.dirname(here) or '.'}, in the working directory {os.getcwd()}"
+        where += f" and in {os.pathsep.join(self.mesh_path)}" if self.mesh_path else " and in no other folder"
+        raise self.t.error(f"mesh file '{name}' not found ({where}); add folders to search with "
+                           f"--mesh-path DIR or the DURER_MESH_PATH environment variable", line)
 
     def transformations(self, line: int, allow_object: bool):
         """Transformations composed in file order (M = M @ T), then (if allowed) exactly one object and '}'."""

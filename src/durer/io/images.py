@@ -69,19 +69,47 @@ def _umask() -> int:
     return mask
 
 
+def check_writable(path: str) -> None:
+    """Raise unless an image can be written at `path`, naming it: UsageError for an unknown extension, and
+    FileNotFoundError (missing folder), IsADirectoryError (a folder in the way) or PermissionError (a folder or
+    file we may not write) with a one-line message. Called before rendering, so nothing is rendered in vain."""
+    check_extension(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"cannot write '{path}': folder '{folder}' does not exist")
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"cannot write '{path}': it is a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise PermissionError(f"cannot write '{path}': no permission to write in folder '{folder}'")
+    if os.path.exists(path) and not os.access(path, os.W_OK):
+        raise PermissionError(f"cannot write '{path}': the file exists and is read-only")
+
+
 def write_atomic(path: str, write) -> None:
-    """Call write(file) on a temporary file beside `path`, then rename it into place: never a half-written file."""
+    """Call write(file) on a temporary file beside `path`, then rename it into place: never a half-written file.
+    Any failure is an OSError naming `path` (never the temporary file)."""
     directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".durer-", suffix=os.path.splitext(path)[1], dir=directory)
+    tmp = None
     try:
+        fd, tmp = tempfile.mkstemp(prefix=".durer-", suffix=os.path.splitext(path)[1], dir=directory)
         with os.fdopen(fd, "wb") as f:
             write(f)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600 files; give the usual permissions
         os.replace(tmp, path)
+    except OSError as e:
+        _remove(tmp)
+        reason = "it is a folder" if os.path.isdir(path) else (e.strerror or str(e))
+        error = OSError(f"cannot write '{path}': {reason}")
+        error.errno = e.errno
+        raise error from None
     except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        _remove(tmp)
         raise
+
+
+def _remove(tmp: str | None) -> None:
+    if tmp is not None and os.path.exists(tmp):
+        os.unlink(tmp)
 
 
 def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:

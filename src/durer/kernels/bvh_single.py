@@ -15,6 +15,12 @@ from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLO
 
 
 @nb.njit(**JIT, inline="always")
+def load_ray(origins, directions, i):
+    """Ray i of (N, 3) arrays as six scalars: ox, oy, oz, dx, dy, dz."""
+    return origins[i, 0], origins[i, 1], origins[i, 2], directions[i, 0], directions[i, 1], directions[i, 2]
+
+
+@nb.njit(**JIT, inline="always")
 def ray_setup(ox, oy, oz, dx, dy, dz):
     """Per-ray constants: reciprocal direction and near-plane row offsets for the slab tests (by direction
     sign), and the shear of the triangle test. A zero direction component becomes 1e-300 for the slabs only,
@@ -97,6 +103,49 @@ def push_nearest_first(dist, codes, stack_node, stack_t, sp):
     return codes[l0], sp
 
 
+@nb.njit(**JIT, inline="always")
+def next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi, dist):
+    """The unordered walk shared by any-hit and all-hits traversals (one or two levels): pop nodes, pushing the
+    children whose boxes the ray enters within [t_lo, t_hi], until a leaf comes up. Returns (leaf code, or 0 when
+    the stack is empty, new stack pointer); the caller pushes the root first (stack_node[0] = root, sp = 1)."""
+    while sp > 0:
+        sp -= 1
+        node = stack_node[sp]
+        if node < 0:
+            return node, sp
+        node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi, dist)
+        for lane in range(WIDTH):
+            if dist[lane] < np.inf:
+                stack_node[sp] = child[node, lane]
+                sp += 1
+    return 0, sp
+
+
+@nb.njit(**JIT, inline="always")
+def descend(bounds, child, node, stack_node, stack_t, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, best,
+            dist):
+    """The ordered walk of closest-hit traversals (one or two levels), downwards: from `node`, step into the
+    nearest child the ray enters within [t_lo, best], pushing the others with their entry distance. Returns (the
+    leaf reached, or 0 when the ray enters no child, new stack pointer)."""
+    while node >= 0:
+        node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, best, dist)
+        node, sp = push_nearest_first(dist, child[node], stack_node, stack_t, sp)
+        if node == 0:
+            return 0, sp
+    return node, sp
+
+
+@nb.njit(**JIT, inline="always")
+def pop_closer(stack_node, stack_t, sp, best):
+    """The ordered walk, sideways: pop the next deferred subtree whose entry distance is not beyond the closest hit
+    so far (the others can no longer hold a closer hit). Returns (node, or 0 when none is left, stack pointer)."""
+    while sp > 0:
+        sp -= 1
+        if stack_t[sp] <= best:
+            return stack_node[sp], sp
+    return 0, sp
+
+
 @nb.njit(**JIT)
 def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                  ox, oy, oz, dx, dy, dz, t_min, t_max, stack_node, stack_t, dist):
@@ -112,39 +161,27 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
     bu = 0.0
     bv = 0.0
     idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
-    sp = 0
-    node = root
+    leaf, sp = descend(bounds, child, root, stack_node, stack_t, 0, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min,
+                       best, dist)
     while True:
-        if node >= 0:
-            node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, best, dist)
-            nxt, sp = push_nearest_first(dist, child[node], stack_node, stack_t, sp)
-            if nxt != 0:
-                node = nxt
-                continue
-        else:
-            first, end = leaf_range(node)
-            for j in range(first, end):
-                p = leaf_prim[j]
-                if p >= 0:
-                    t, u, w = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz,
-                                                  t_min, best)
-                    if t < best:
-                        best, kind, prim, bu, bv = t, TRIANGLE, p, u, w
-                else:
-                    s = -p - 1
-                    t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s],
-                                                   sph_w2o[s], t_min, best)
-                    if t < best:
-                        best, kind, prim, bu, bv = t, SPHERE, s, 0.0, 0.0
-        # pop the next subtree that can still hold a closer hit
-        node = 0
-        while sp > 0:
-            sp -= 1
-            if stack_t[sp] <= best:
-                node = stack_node[sp]
-                break
+        first, end = leaf_range(leaf) if leaf != 0 else (0, 0)
+        for j in range(first, end):
+            p = leaf_prim[j]
+            if p >= 0:
+                t, u, w = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, best)
+                if t < best:
+                    best, kind, prim, bu, bv = t, TRIANGLE, p, u, w
+            else:
+                s = -p - 1
+                t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s],
+                                               sph_w2o[s], t_min, best)
+                if t < best:
+                    best, kind, prim, bu, bv = t, SPHERE, s, 0.0, 0.0
+        node, sp = pop_closer(stack_node, stack_t, sp, best)
         if node == 0:
             break
+        leaf, sp = descend(bounds, child, node, stack_node, stack_t, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
+                           t_min, best, dist)
     if kind == 0:
         best = np.inf
     return best, kind, prim, bu, bv
@@ -157,29 +194,22 @@ def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
     idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
     stack_node[0] = root
     sp = 1
-    while sp > 0:
-        sp -= 1
-        node = stack_node[sp]
-        if node >= 0:
-            node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max, dist)
-            for lane in range(4):
-                if dist[lane] < np.inf:
-                    stack_node[sp] = child[node, lane]
-                    sp += 1
-        else:
-            first, end = leaf_range(node)
-            for j in range(first, end):
-                p = leaf_prim[j]
-                if p >= 0:
-                    t, _, _ = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz,
-                                                  t_min, t_max)
-                else:
-                    s = -p - 1
-                    t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s],
-                                                   sph_w2o[s], t_min, t_max)
-                if t < np.inf:
-                    return True
-    return False
+    while True:
+        leaf, sp = next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max,
+                             dist)
+        if leaf == 0:
+            return False
+        first, end = leaf_range(leaf)
+        for j in range(first, end):
+            p = leaf_prim[j]
+            if p >= 0:
+                t, _, _ = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max)
+            else:
+                s = -p - 1
+                t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s],
+                                               sph_w2o[s], t_min, t_max)
+            if t < np.inf:
+                return True
 
 
 @nb.njit(**JIT)
@@ -193,17 +223,12 @@ def blas_all(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
     cap = out_t.shape[0]
     stack_node[0] = root
     sp = 1
-    while sp > 0:
-        sp -= 1
-        node = stack_node[sp]
-        if node >= 0:
-            node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max, dist)
-            for lane in range(4):
-                if dist[lane] < np.inf:
-                    stack_node[sp] = child[node, lane]
-                    sp += 1
-            continue
-        first, end = leaf_range(node)
+    while True:
+        leaf, sp = next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max,
+                             dist)
+        if leaf == 0:
+            return n_out
+        first, end = leaf_range(leaf)
         for j in range(first, end):
             p = leaf_prim[j]
             if p >= 0:
@@ -227,7 +252,6 @@ def blas_all(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
                     out_u[n_out], out_v[n_out] = 0.0, 0.0
                 n_out += 1
                 lo = t
-    return n_out
 
 
 @nb.njit(**JIT)

@@ -28,8 +28,16 @@ from .bvh_packet import (
     packet_setup,
     packet_traverse,
 )
-from .bvh_single import blas_any, blas_closest, planes_closest
+from .bvh_single import blas_any, blas_closest, load_ray, planes_closest
 from .layout import BLOCK, JIT, MISS, PACKET, PLANE, SPHERE, TILE, TRIANGLE
+
+
+@nb.njit(**JIT, inline="always")
+def scratch(stack_size):
+    """Per-call scratch of the one-level kernels, allocated once and reused by every packet and ray: the stack
+    (nodes, entry distances), the one-ray lane distances, the packet rows, the packet's child order, ray indices."""
+    return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(4), np.empty((_NROW, PACKET)),
+            np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64))
 
 
 @nb.njit(**JIT)
@@ -42,14 +50,8 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
     threads (cheaper to compile and to load from the cache than a parallel=True kernel)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    stack_node = np.empty(stack_size, np.int32)
-    stack_t = np.empty(stack_size)
-    dist = np.empty(4)
-    rr = np.empty((_NROW, PACKET))
+    stack_node, stack_t, dist, rr, key, order, idx = scratch(stack_size)
     pprims = np.empty(PACKET, np.int32)
-    key = np.empty(4)
-    order = np.empty(4, np.int64)
-    idx = np.empty(PACKET, np.int64)
     for blk in range(blk0, blk1):
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
             m = chunk_rays(c, n, width, idx)
@@ -79,8 +81,7 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                 continue
             for q in range(m):
                 i = idx[q]
-                ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-                dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+                ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
                 lo = t_min[i]
                 best, pprim = planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo, t_max[i])
                 t, kind, prim, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius,
@@ -102,13 +103,7 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
     the tree (in packets when coherent, as in closest_hit_bvh)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    stack_node = np.empty(stack_size, np.int32)
-    stack_t = np.empty(stack_size)
-    dist = np.empty(4)
-    rr = np.empty((_NROW, PACKET))
-    key = np.empty(4)
-    order = np.empty(4, np.int64)
-    idx = np.empty(PACKET, np.int64)
+    stack_node, stack_t, dist, rr, key, order, idx = scratch(stack_size)
     for blk in range(blk0, blk1):
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
             m = chunk_rays(c, n, width, idx)
@@ -126,8 +121,7 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                 continue
             for q in range(m):
                 i = idx[q]
-                ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-                dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+                ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
                 _, pprim = planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, t_min[i], t_max[i])
                 if pprim >= 0:
                     out[i] = True

@@ -117,6 +117,17 @@ def _sphere_cell(center, radius, bmin, bmax):
     return math.sqrt(dc) <= radius + math.sqrt(hd)
 
 
+@nb.njit(cache=True, inline="always")
+def _cell_box(lo, size, i, j, m, bmin, bmax):
+    """The box of cell (i, j, m) into bmin, bmax."""
+    bmin[0] = lo[0] + i * size[0]
+    bmin[1] = lo[1] + j * size[1]
+    bmin[2] = lo[2] + m * size[2]
+    bmax[0] = bmin[0] + size[0]
+    bmax[1] = bmin[1] + size[1]
+    bmax[2] = bmin[2] + size[2]
+
+
 @nb.njit(cache=True)
 def _fill(tris, tri_test, sph_center, sph_radius, sph_lo, sph_hi, sph_as_box, lo, size, dims, start, items,
           counting):
@@ -138,12 +149,7 @@ def _fill(tris, tri_test, sph_center, sph_radius, sph_lo, sph_hi, sph_as_box, lo
             for j in range(j0, j1 + 1):
                 for m in range(k0, k1 + 1):
                     if tri_test:
-                        bmin[0] = lo[0] + i * size[0]
-                        bmin[1] = lo[1] + j * size[1]
-                        bmin[2] = lo[2] + m * size[2]
-                        bmax[0] = bmin[0] + size[0]
-                        bmax[1] = bmin[1] + size[1]
-                        bmax[2] = bmin[2] + size[2]
+                        _cell_box(lo, size, i, j, m, bmin, bmax)
                         if not _tri_box_overlap(t, bmin, bmax):
                             continue
                     c = (m * ny + j) * nx + i
@@ -166,12 +172,7 @@ def _fill(tris, tri_test, sph_center, sph_radius, sph_lo, sph_hi, sph_as_box, lo
             for j in range(j0, j1 + 1):
                 for m in range(k0, k1 + 1):
                     if not sph_as_box[k]:
-                        bmin[0] = lo[0] + i * size[0]
-                        bmin[1] = lo[1] + j * size[1]
-                        bmin[2] = lo[2] + m * size[2]
-                        bmax[0] = bmin[0] + size[0]
-                        bmax[1] = bmin[1] + size[1]
-                        bmax[2] = bmin[2] + size[2]
+                        _cell_box(lo, size, i, j, m, bmin, bmax)
                         if not _sphere_cell(sph_center[k], sph_radius[k], bmin, bmax):
                             continue
                     c = (m * ny + j) * nx + i
@@ -298,12 +299,17 @@ def walk_cells(o, d, t_min, t_max, lo, box, size, dims, cells, t_enter, axis_ent
     return n
 
 
+@nb.njit(cache=True, inline="always")
+def _cell_index(idx, dims):
+    """Flat index of cell (i, j, k) = idx: x fastest, then y, then z."""
+    return (idx[2] * dims[1] + idx[1]) * dims[0] + idx[0]
+
+
 @nb.njit(cache=True, parallel=True)
 def closest_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, start, items,
                      tris, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset,
                      t_out, kind_out, prim_out, u_out, v_out, count, n_tests, n_cells):
     """Closest hit of every ray (the outputs of kernels.brute.closest_hit_all), parallel over rays."""
-    nx, ny = dims[0], dims[1]
     for r in nb.prange(origins.shape[0]):
         o = origins[r]
         d = directions[r]
@@ -332,7 +338,7 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, sta
             _walk_start(o, d, t0, lo, size, dims, idx, step, tnext)
             while True:
                 cells += 1
-                c = (idx[2] * ny + idx[1]) * nx + idx[0]
+                c = _cell_index(idx, dims)
                 for p in range(start[c], start[c + 1]):
                     item = items[p]
                     tests += 1
@@ -369,7 +375,6 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, sta
 def any_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, start, items,
                  tris, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset, out, count, n_tests, n_cells):
     """out[r] = True when ray r hits anything with t_min < t < t_max; stops at the first hit found."""
-    nx, ny = dims[0], dims[1]
     for r in nb.prange(origins.shape[0]):
         o = origins[r]
         d = directions[r]
@@ -393,7 +398,7 @@ def any_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, start, 
             _walk_start(o, d, t0, lo, size, dims, idx, step, tnext)
             while not hit:
                 cells += 1
-                c = (idx[2] * ny + idx[1]) * nx + idx[0]
+                c = _cell_index(idx, dims)
                 for p in range(start[c], start[c + 1]):
                     item = items[p]
                     tests += 1
@@ -423,7 +428,6 @@ def first_occupied_cell(origins, directions, t_min, lo, box, size, dims, start,
     (the grid box's face for the first cell; -1 if the ray starts inside), count_out its number of primitives.
     n_cells (one per ray, or empty) receives the cells visited.
     """
-    nx, ny = dims[0], dims[1]
     count = n_cells.shape[0] > 0
     for r in nb.prange(origins.shape[0]):
         o = origins[r]
@@ -441,7 +445,7 @@ def first_occupied_cell(origins, directions, t_min, lo, box, size, dims, start,
             t_enter = t0
             while True:
                 cells += 1
-                c = (idx[2] * ny + idx[1]) * nx + idx[0]
+                c = _cell_index(idx, dims)
                 n = start[c + 1] - start[c]
                 if n > 0:
                     t_out[r] = t_enter

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_single import blas_all, blas_any, blas_closest, node_dists, push_nearest_first, ray_setup
+from .bvh_single import blas_all, blas_any, blas_closest, descend, load_ray, next_leaf, pop_closer, ray_setup
 from .layout import JIT, RAY_CHUNK, SPHERE, TRIANGLE, leaf_range
 
 
@@ -87,40 +87,29 @@ def closest_hit_instances(origins, directions, t_min, t_max,
         stack_t = np.empty(stack_size)
         dist = np.empty(4)
         for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
-            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
             lo = t_min[i]
             best = t_max[i]
             b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
             idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
-            sp = 0
-            node = 0
+            leaf, sp = descend(top_bounds, top_child, 0, top_node, top_t, 0, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
+                               lo, best, dist)
             while True:
-                if node >= 0:
-                    node_dists(top_bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, lo, best, dist)
-                    nxt, sp = push_nearest_first(dist, top_child[node], top_node, top_t, sp)
-                    if nxt != 0:
-                        node = nxt
-                        continue
-                else:
-                    first, end = leaf_range(node)
-                    for j in range(first, end):
-                        k = top_leaf[j]
-                        px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
-                        t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
-                                                           sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
-                                                           lo, best, stack_node, stack_t, dist)
-                        if kind != 0:
-                            best = t
-                            b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
-                node = 0
-                while sp > 0:
-                    sp -= 1
-                    if top_t[sp] <= best:
-                        node = top_node[sp]
-                        break
+                first, end = leaf_range(leaf) if leaf != 0 else (0, 0)
+                for j in range(first, end):
+                    k = top_leaf[j]
+                    px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                    t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center,
+                                                       sph_radius, sph_w2o, px, py, pz, qx, qy, qz, lo, best,
+                                                       stack_node, stack_t, dist)
+                    if kind != 0:
+                        best = t
+                        b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
+                node, sp = pop_closer(top_node, top_t, sp, best)
                 if node == 0:
                     break
+                leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx,
+                                   idy, idz, lo, best, dist)
             t_out[i] = best if b_kind != 0 else np.inf
             inst_out[i] = b_inst
             kind_out[i] = b_kind
@@ -140,24 +129,18 @@ def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, 
         stack_node = np.empty(stack_size, np.int32)
         dist = np.empty(4)
         for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
-            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
             lo, hi = t_min[i], t_max[i]
             idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
             hit = False
             top_node[0] = 0
             sp = 1
-            while sp > 0 and not hit:
-                sp -= 1
-                node = top_node[sp]
-                if node >= 0:
-                    node_dists(top_bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, lo, hi, dist)
-                    for lane in range(4):
-                        if dist[lane] < np.inf:
-                            top_node[sp] = top_child[node, lane]
-                            sp += 1
-                    continue
-                first, end = leaf_range(node)
+            while not hit:
+                leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
+                                     lo, hi, dist)
+                if leaf == 0:
+                    break
+                first, end = leaf_range(leaf)
                 for j in range(first, end):
                     k = top_leaf[j]
                     px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
@@ -183,28 +166,22 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
         stack_node = np.empty(stack_size, np.int32)
         dist = np.empty(4)
         for i in range(c * RAY_CHUNK, min(n, (c + 1) * RAY_CHUNK)):
-            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
             lo, hi = t_min[i], t_max[i]
             idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
             start = offsets[i] if fill else 0
-            end = offsets[i] + counts[i] if fill else 0
-            ot, ok_, op, ou, ov = out_t[start:end], out_kind[start:end], out_prim[start:end], \
-                out_u[start:end], out_v[start:end]
+            stop = offsets[i] + counts[i] if fill else 0
+            ot, ok_, op, ou, ov = out_t[start:stop], out_kind[start:stop], out_prim[start:stop], \
+                out_u[start:stop], out_v[start:stop]
             total = 0
             top_node[0] = 0
             sp = 1
-            while sp > 0:
-                sp -= 1
-                node = top_node[sp]
-                if node >= 0:
-                    node_dists(top_bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, lo, hi, dist)
-                    for lane in range(4):
-                        if dist[lane] < np.inf:
-                            top_node[sp] = top_child[node, lane]
-                            sp += 1
-                    continue
-                first, end = leaf_range(node)
+            while True:
+                leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
+                                     lo, hi, dist)
+                if leaf == 0:
+                    break
+                first, end = leaf_range(leaf)
                 for j in range(first, end):
                     k = top_leaf[j]
                     px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
@@ -213,6 +190,6 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
                                      sph_w2o, px, py, pz, qx, qy, qz, lo, hi, stack_node, dist,
                                      ot, op, ok_, ou, ov, total)
                     if fill:
-                        for q in range(before, min(total, end - start)):
+                        for q in range(before, min(total, stop - start)):
                             out_inst[start + q] = k
             counts[i] = total

@@ -13,10 +13,13 @@ from ..accel.brute import BruteForce
 from ..accel.bvh import BVHAccelerator
 from ..accel.compile import compile_scene, spheres_under_transform, with_course_edges
 from ..accel.grid import GridAccelerator
+from ..accel.hits import Accelerator
 from ..accel.stats import CountingAccelerator, RayStats
-from ..io.images import depth_visualization, normal_visualization, save_image
+from ..io.images import depth_visualization, encode_srgb, normal_visualization, save_image
 from ..options import RenderOptions
+from ..scene.cameras import frame_sphere
 from ..scene.graph import Scene
+from ..scene.validate import check_scene
 from . import film
 from .grid_view import visualize_grid
 from .raycaster import RenderContext, SampleResult, raycast
@@ -39,6 +42,27 @@ class RenderResult:
     normals: np.ndarray
     seconds: float = 0.0
     stats: RayStats | None = None  # -stats counters (None unless options.stats)
+
+    def __repr__(self) -> str:
+        h, w = self.depth.shape
+        hit = int(np.isfinite(self.depth).sum())
+        return (f"<RenderResult {w}x{h}: {hit} of {w * h} pixels hit, colour up to {float(self.color.max()):.3g} "
+                f"(linear), {self.seconds:.2f} s>")
+
+    def to_srgb8(self) -> np.ndarray:
+        """The colour as an sRGB-encoded uint8 (H, W, 3) array, as `save` writes it and as image viewers and
+        `plt.imshow` expect (`color` itself is linear radiance, which looks too dark shown directly)."""
+        return encode_srgb(self.color)
+
+    def _repr_png_(self) -> bytes:
+        """PNG bytes of `to_srgb8()`: Jupyter shows a RenderResult as its image."""
+        import io
+
+        from PIL import Image
+
+        buffer = io.BytesIO()
+        Image.fromarray(self.to_srgb8(), mode="RGB").save(buffer, format="PNG")
+        return buffer.getvalue()
 
     def save(self, path: str | os.PathLike, *, course: bool = False) -> None:
         """Write the colour image (8-bit formats sRGB-encoded, or truncated like the course with course=True)."""
@@ -69,11 +93,13 @@ class RenderResult:
 
 
 def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
-    """Compile the scene and build its accelerator."""
+    """Check the scene (ValueError naming a wrong object), compile it and build its accelerator."""
+    check_scene(scene)
     cs = compile_scene(scene)
     # the course command: triangles accept points just outside their edges, as the course's (compile.py)
     hit_cs = with_course_edges(cs) if options.course_edges else cs
-    accel = BVHAccelerator(hit_cs)
+    # the lecture's loop over every object (--accel brute), or the bounding volume hierarchy (the default)
+    accel: Accelerator = BruteForce(hit_cs) if options.accel == "brute" else BVHAccelerator(hit_cs)
     # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
     # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
     stats = RayStats(bounds=cs.bounds()) if options.stats else None
@@ -159,20 +185,27 @@ def render(scene: Scene, width: int, height: int, *, options: RenderOptions | No
         raise ValueError(f"image size must be positive integers, got {width} x {height}")
     width, height = int(width), int(height)
     options = make_options(options, **kwargs)
+    check_size(width, height, options.samples)
     start = time.perf_counter()
+    if not quiet and kernels_cold():
+        print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
     ctx = make_context(scene, options)
     integrate = choose_integrator(options)
+    camera = scene.camera
+    if getattr(camera, "frame", None) is not None:  # a camera framed on a model: frame it for this image's shape
+        camera = frame_sphere(*camera.frame[:2], width, height, up=camera.frame[2])
     points, pixel = film.sample_points(width, height, options)
-    origins, directions, valid = scene.camera.generate_rays(points, width, height)
+    origins, directions, valid = camera.generate_rays(points, width, height)
     n = len(points)
     color = np.broadcast_to(np.zeros(3), (n, 3)).copy()
+    color[~valid] = scene.background_color  # film points without a ray (outside a fisheye's circle)
     depth = np.full(n, np.inf)
     normals = np.zeros((n, 3))
     idx = np.flatnonzero(valid)
     with _progress(len(idx), quiet) as bar:
         for lo in range(0, len(idx), CHUNK):
             sel = idx[lo:lo + CHUNK]
-            r: SampleResult = integrate(ctx, origins[sel], directions[sel], scene.camera.t_min)
+            r: SampleResult = integrate(ctx, origins[sel], directions[sel], camera.t_min)
             color[sel], depth[sel], normals[sel] = r.color, r.t, r.normal
             bar.update(len(sel))
     pixels = film.reconstruct(points, pixel, color, width, height, options)
@@ -184,6 +217,54 @@ def render(scene: Scene, width: int, height: int, *, options: RenderOptions | No
         seconds=time.perf_counter() - start,
         stats=getattr(ctx.accel, "stats", None),
     )
+
+
+BYTES_PER_SAMPLE = 200  # film points, rays, colour, depth, normals, pixel ids and the filter's buffers (float64)
+BYTES_PER_PIXEL = 60    # the float32 colour, depth and normal images of the result
+
+
+def check_size(width: int, height: int, samples: int = 1) -> None:
+    """ValueError before anything is allocated if the render would need more memory than the machine has."""
+    need = width * height * (samples * BYTES_PER_SAMPLE + BYTES_PER_PIXEL)
+    have = physical_memory()
+    if have and need > have:
+        raise ValueError(f"a {width} x {height} image with {samples} sample(s) per pixel would need about "
+                         f"{_human(need)} of memory; this machine has {_human(have)}")
+
+
+def physical_memory() -> int:
+    """Bytes of physical memory (0 if the platform does not say)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return 0
+
+
+def _human(n: float) -> str:
+    for unit in ("bytes", "KB", "MB", "GB", "TB"):
+        if n < 1000 or unit == "TB":
+            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.1f} {unit}"
+        n /= 1000
+    return f"{n:.1f} PB"
+
+
+COLD_CHECK = ("bvh_build", "bvh_trace")  # kernel modules every render compiles and caches
+
+
+def kernels_cold(folder: str | None = None) -> bool:
+    """Is Numba's on-disk cache of the kernels still empty (the first render will compile for many seconds)?
+    Cheap: looks for the cache's index files (*.nbi) beside the kernels, in kernels/__pycache__."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return False  # a cache elsewhere: cannot tell cheaply, stay quiet
+    if folder is None:
+        from .. import kernels
+
+        folder = os.path.join(os.path.dirname(kernels.__file__), "__pycache__")
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return True
+    return not all(any(n.startswith(m + ".") and n.endswith(".nbi") for n in names) for m in COLD_CHECK)
 
 
 def _nearest_to_centre(points: np.ndarray, pixel: np.ndarray, width: int, height: int) -> np.ndarray:

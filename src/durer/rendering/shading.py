@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.lights import DirectionalLight, PointLight
+from ..scene.lights import DirectionalLight, PointLight, SpotLight
 from ..scene.materials import PhongMaterial
 
 
@@ -47,17 +47,19 @@ _NO_MATERIAL = PhongMaterial(diffuse_color=(0.0, 0.0, 0.0))
 
 def light_directions(light, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each point: unit direction towards the light, the light's colour there, and its distance (inf for
-    a directional light)."""
+    a directional light). A spot light is a point light times its cone's falloff (SpotLight.cone_factor)."""
     n = len(points)
     if isinstance(light, DirectionalLight):
         to_light = np.broadcast_to(-light.direction, (n, 3))
         return to_light, np.broadcast_to(light.color, (n, 3)), np.full(n, np.inf)
-    if isinstance(light, PointLight):
+    if isinstance(light, (PointLight, SpotLight)):
         v = light.position - points
         dist = np.linalg.norm(v, axis=1)
         to_light = v / np.maximum(dist, 1e-300)[:, None]
         a, b, c = light.attenuation
         scale = 1.0 / np.maximum(a + b * dist + c * dist * dist, 1e-300)
+        if isinstance(light, SpotLight):
+            scale = scale * light.cone_factor(to_light)
         return to_light, light.color[None, :] * scale[:, None], dist
     raise TypeError(f"not a light: {type(light).__name__}")
 

@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernels.noise import turbulence
-from ..scene.materials import PhongMaterial
+from ..scene.materials import PBRMaterial, PhongMaterial
 from ..scene.textures import Checkerboard, Marble, Noise, Wood
 
 WOOD_Y_TWIST = 0.05        # phase drift of the rings along the axis, per texture unit and unit of frequency (fitted)
@@ -103,3 +103,44 @@ def leaf_weights(materials: list, mat: np.ndarray, points: np.ndarray) -> list[t
             pending.append((second, w_second))
     done.reverse()
     return done
+
+
+def image_lookup(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear lookup (N,3) of an (H, W, 3) image at texture coordinates uv (N,2), repeating outside [0, 1]
+    (glTF's default sampler). v runs up the image: v = 1 is row 0, as trimesh gives glTF's UVs (flipped on load)."""
+    h, w = image.shape[:2]
+    x = np.mod(uv[:, 0], 1.0) * w - 0.5
+    y = np.mod(1.0 - uv[:, 1], 1.0) * h - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    x0, y0 = x0.astype(np.int64) % w, y0.astype(np.int64) % h
+    x1, y1 = (x0 + 1) % w, (y0 + 1) % h
+    top = image[y0, x0] * (1 - fx) + image[y0, x1] * fx
+    bottom = image[y1, x0] * (1 - fx) + image[y1, x1] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def has_image_textures(materials: list) -> bool:
+    """Does any material look up an image through UVs (so the integrators must compute UVs at the hits)?"""
+    return any(isinstance(m, PBRMaterial) and m.texture is not None for m in materials)
+
+
+def diffuse_colors(materials: list, diffuse: np.ndarray, leaf: np.ndarray, uv: np.ndarray | None,
+                   tint: np.ndarray | None = None) -> np.ndarray:
+    """Diffuse colour (N,3) of Phong material ids `leaf`: the table's colour, times the vertex colours `tint` if
+    given, times the image texture at `uv` for PBR materials with one (issue 13: glTF's base colour texture)."""
+    kd = diffuse[leaf] if tint is None else diffuse[leaf] * tint
+    if uv is None:
+        return kd
+    for i in np.unique(leaf):
+        mat = materials[i]
+        if isinstance(mat, PBRMaterial) and mat.texture is not None:
+            sel = leaf == i
+            kd[sel] = kd[sel] * image_lookup(mat.texture, uv[sel])
+    return kd
+
+
+def emission(materials: list, leaf: np.ndarray) -> np.ndarray | None:
+    """Emitted colour (N,3) of Phong material ids `leaf` (PBR materials' emissive), or None if nothing glows."""
+    glow = np.array([m.emission if isinstance(m, PBRMaterial) else np.zeros(3) for m in materials]).reshape(-1, 3)
+    return glow[leaf] if glow.any() else None

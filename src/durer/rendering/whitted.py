@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .raycaster import RenderContext, SampleResult, shade_local, surface
+from .raycaster import RenderContext, SampleResult, hit_tint, hit_uv, shade_local, surface
 from .shading import light_directions
 from .texturing import leaf_weights
 
@@ -131,7 +131,8 @@ def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
         back = cos > 0
         facing = np.where(back[:, None], -geo_normals[sel], geo_normals[sel])  # normal on the ray's side
         visible = shadow_visibility(ctx, p, facing) if opts.shadows else None
-        local = shade_local(ctx, p, geo_normals[sel], d, m, light_visible=visible)
+        uv, tint = (None if a is None else a[sel] for a in (hit_uv(ctx, hits, points), hit_tint(ctx, hits, points)))
+        local = shade_local(ctx, p, geo_normals[sel], d, m, light_visible=visible, uv=uv, tint=tint)
         np.add.at(color, pixel[sel], throughput[sel] * local)
         if level == opts.bounces:
             break

@@ -119,7 +119,8 @@ class PerspectiveCamera:
 class FisheyeCamera:
     """Equidistant fisheye: the angle from the view direction grows linearly with the distance from the
     image centre, reaching `angle`/2 at the middle of the shorter side's edge (angle may exceed 180), so the
-    whole image circle is in the picture. Film points outside that circle get no ray."""
+    whole image circle is in the picture. Film points outside that circle get no ray (their `valid` mask is False)
+    and the renderer paints them in the scene's background colour."""
 
     center: np.ndarray
     direction: np.ndarray
@@ -174,3 +175,29 @@ class PanoramaCamera:
 
 
 Camera = OrthographicCamera | PerspectiveCamera | FisheyeCamera | PanoramaCamera
+
+
+FRAMING_ANGLE = 40.0      # field of view (degrees, across the longer side) of a camera framed on a model
+FRAMING_AZIMUTH = 35.0    # degrees to the right of the model's front (+Z for +Y up)
+FRAMING_ELEVATION = 25.0  # degrees above its horizon
+FRAMING_MARGIN = 1.08     # the bounding sphere's silhouette ends this far inside the shorter image side
+
+
+def frame_sphere(center, radius: float, width: int = 1, height: int = 1, up=(0.0, 1.0, 0.0)) -> PerspectiveCamera:
+    """A perspective camera that sees the whole sphere (center, radius) from a three-quarter view, the sphere's
+    outline just inside the shorter side of a width x height image. The camera remembers the sphere as `frame`,
+    so the renderer can frame it again for the image it actually renders (rendering/renderer.py)."""
+    center = _finite_point(center)
+    radius = float(radius) if radius > 0 else 1.0
+    u = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    front = np.array([0.0, 0.0, 1.0]) if abs(u[2]) < 0.9 else np.array([0.0, -1.0, 0.0])
+    front = front - (front @ u) * u
+    front /= np.linalg.norm(front)
+    right = np.cross(u, front)
+    az, el = np.radians(FRAMING_AZIMUTH), np.radians(FRAMING_ELEVATION)
+    offset = np.cos(el) * (np.cos(az) * front + np.sin(az) * right) + np.sin(el) * u
+    half_short = np.arctan(np.tan(np.radians(FRAMING_ANGLE) / 2) * min(width, height) / max(width, height))
+    distance = FRAMING_MARGIN * radius / np.sin(half_short)
+    camera = PerspectiveCamera(center + distance * offset, -offset, u, FRAMING_ANGLE)
+    camera.frame = (center, radius, u)
+    return camera

@@ -26,7 +26,10 @@ class Transform:
     object: object
 
     def __post_init__(self):
-        self.matrix = np.asarray(self.matrix, dtype=np.float64).reshape(4, 4)
+        try:
+            self.matrix = np.asarray(self.matrix, dtype=np.float64).reshape(4, 4)
+        except (TypeError, ValueError):
+            raise ValueError(f"transform matrix must be 4x4 numbers, got {np.shape(self.matrix)}") from None
         if not np.isfinite(self.matrix).all():
             raise ValueError("transform matrix must be finite")
         if abs(np.linalg.det(self.matrix[:3, :3])) < 1e-300:

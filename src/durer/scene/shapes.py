@@ -6,16 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .values import finite_triple
+
 
 def _vec3(v, what: str = "vector") -> np.ndarray:
     """A finite float64 3-vector, or a ValueError naming what was wrong."""
-    try:
-        a = np.asarray(v, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be three numbers, got {v!r}") from None
-    if not np.isfinite(a).all():
-        raise ValueError(f"{what} must be finite, got {a.tolist()}")
-    return a
+    return finite_triple(v, what)
 
 
 @dataclass
@@ -66,16 +62,31 @@ class Triangle:
 
 @dataclass
 class TriangleMesh:
-    """Indexed triangles: `vertices` (V,3) float, `faces` (F,3) int, 0-based."""
+    """Indexed triangles: `vertices` (V,3) float, `faces` (F,3) int, 0-based; optional texture coordinates
+    `uvs` (V,2), one per vertex, for image textures (PBRMaterial.texture), and optional vertex `normals` (V,3),
+    interpolated across each triangle for smooth shading (without them, triangles shade flat), and optional vertex
+    `colors` (V,3), linear RGB, interpolated across each triangle and multiplying the material's diffuse colour."""
 
     vertices: np.ndarray
     faces: np.ndarray
     material: int = 0
     source: str | None = field(default=None, compare=False)
+    uvs: np.ndarray | None = field(default=None, compare=False)
+    normals: np.ndarray | None = field(default=None, compare=False)
+    colors: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self):
-        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
-        self.faces = np.ascontiguousarray(self.faces, dtype=np.int64).reshape(-1, 3)
+        try:
+            self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
+            self.faces = np.ascontiguousarray(self.faces, dtype=np.int64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"mesh vertices must be numbers and faces integers: {e}") from None
+        if self.vertices.ndim != 2 or self.vertices.shape[1] != 3:
+            raise ValueError(f"mesh vertices must be a (V, 3) array, got shape {self.vertices.shape}")
+        if self.faces.size == 0:
+            self.faces = self.faces.reshape(0, 3)
+        if self.faces.ndim != 2 or self.faces.shape[1] != 3:
+            raise ValueError(f"mesh faces must be an (F, 3) array of vertex indices, got shape {self.faces.shape}")
         if not np.isfinite(self.vertices).all():
             raise ValueError("mesh vertices must be finite (found NaN or infinity)")
         if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= len(self.vertices)):
@@ -83,3 +94,18 @@ class TriangleMesh:
                 f"face index out of range: mesh has {len(self.vertices)} vertices, "
                 f"faces use {self.faces.min()}..{self.faces.max()}"
             )
+        if self.uvs is not None:
+            self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float64)
+            if self.uvs.shape != (len(self.vertices), 2) or not np.isfinite(self.uvs).all():
+                raise ValueError(f"mesh uvs must be finite, one (u, v) pair per vertex: expected "
+                                 f"({len(self.vertices)}, 2), got {self.uvs.shape}")
+        if self.normals is not None:
+            self.normals = np.ascontiguousarray(self.normals, dtype=np.float64)
+            if self.normals.shape != self.vertices.shape or not np.isfinite(self.normals).all():
+                raise ValueError(f"mesh normals must be finite, one per vertex: expected {self.vertices.shape}, "
+                                 f"got {self.normals.shape}")
+        if self.colors is not None:
+            self.colors = np.ascontiguousarray(self.colors, dtype=np.float64)
+            if self.colors.shape != self.vertices.shape or not np.isfinite(self.colors).all():
+                raise ValueError(f"mesh colors must be finite RGB, one per vertex: expected {self.vertices.shape}, "
+                                 f"got {self.colors.shape}")
