@@ -17,12 +17,12 @@ import os
 
 import numpy as np
 
-from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH
+from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH, flat_image_width
 from .kernels.bvh_trace import image_width
-from .kernels.layout import SPHERE, TILE
+from .kernels.layout import SPHERE
 from .kernels.rays import first_problem, n_chunks, split_checked_rays
 
-__all__ = ["INVALID_ID", "RaycastingScene"]
+__all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
 
 
 def _numeric_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
@@ -42,44 +42,6 @@ def _finite_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
     if not np.isfinite(arr).all():
         raise ValueError(f"{name} contains NaN or infinity")
     return arr
-
-
-_PROBE = 16384  # leading rays looked at to find the row length of flat rays (widths up to this)
-
-
-def flat_image_width(o: np.ndarray, d: np.ndarray) -> int:
-    """The width of the image whose rows flat (N, 3) rays follow (a camera's rays reshaped to (N, 3), row by
-    row), so the kernels can trace them in 4 x 4 tiles as they do an (H, W, ...) array; 0 when they do not look
-    like one: the first jump between consecutive rays (4x the first step) must end a row whose length is a
-    multiple of 4 dividing N in whole 4-row bands, and 64 rays spread over the batch must lie as close to the
-    ray one row below as to their neighbour. Only speed depends on the answer: the packet kernels find the
-    same hits in any order (t to the bit)."""
-    n = len(o)
-    if n < TILE * TILE * 4:
-        return 0
-    k = min(n, _PROBE + 1)
-    extent = float(np.ptp(o[:257], axis=0).max())
-    scale = 1.0 / extent if extent > 0.0 else 0.0  # origins count in units of the first rays' spread
-
-    def gap(a, b):
-        return np.abs(o[a] - o[b]).sum(axis=-1) * scale + np.abs(d[a] - d[b]).sum(axis=-1)
-
-    base = float(gap(0, 1))
-    if not base > 0.0:
-        return 0
-    jumps = np.zeros(0, np.int64)
-    for m in (257, 2049, k):  # widening windows: a short row is found without looking at 16k rays
-        m = min(m, k)
-        jumps = np.flatnonzero(gap(slice(0, m - 1), slice(1, m)) > 4.0 * base)
-        if len(jumps) or m == k:
-            break
-    if len(jumps) == 0:
-        return 0
-    w = int(jumps[0]) + 1
-    if w % TILE or n % (TILE * w):
-        return 0
-    i = np.linspace(0, n - w - 1, 64).astype(np.int64)
-    return w if bool(np.all(gap(i, i + w) <= 4.0 * base)) else 0
 
 
 def _transform(matrix) -> np.ndarray:
