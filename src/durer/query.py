@@ -20,7 +20,7 @@ import numpy as np
 from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH, flat_image_width
 from .kernels.bvh_trace import image_width
 from .kernels.layout import SPHERE
-from .kernels.rays import first_problem, n_chunks, split_checked_rays
+from .kernels.rays import first_problem, n_chunks, split_rays
 
 __all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
 
@@ -173,7 +173,7 @@ class RaycastingScene:
         n = src_o.shape[0]
         o, d = np.empty((n, 3)), np.empty((n, 3))
         first = np.empty((n_chunks(n), 3), np.int64)
-        split_checked_rays(src_o, src_d, o, d, first)
+        split_rays(src_o, src_d, o, d, first)
         bad, part, zero = first_problem(first)
         if bad >= 0:
             raise ValueError(f"{names[part]} contains NaN or infinity (ray {bad})")

@@ -23,6 +23,7 @@ import numpy as np
 from ..kernels.bvh_build import build_wide_bvh, item_boxes, leaf_items
 from ..kernels.bvh_trace import any_hit_bvh, closest_hit_bvh
 from ..kernels.instances import (
+    NORMALS_CHUNK,
     all_hits_instances,
     any_hit_instances,
     closest_hit_instances,
@@ -30,7 +31,7 @@ from ..kernels.instances import (
     rays_to_object,
 )
 from ..kernels.layout import MAX_LEAF, MISS, SPHERE, TILE, TRIANGLE, leaf_codes, leaf_slots, stack_size_for
-from ..kernels.threads import run_blocks
+from ..kernels.threads import run_blocks, run_pieces
 from .compile import CompiledScene, sphere_bounds
 from .hits import Hits, per_ray
 
@@ -335,8 +336,8 @@ class TwoLevelBVH:
         out = np.zeros((len(t), 3))
         if self.instances:
             p = self.packed
-            hit_normals(o, d, t, inst, kind, prim, p.inst_shape, p.tri_off, p.normals, p.w2o, p.inst_sign,
-                        p.blas[4], out)
+            run_pieces(hit_normals, -(-len(t) // NORMALS_CHUNK), o, d, t, inst, kind, prim, p.inst_shape,
+                       p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas[4], out)
         return out
 
 
