@@ -11,7 +11,9 @@ them durer's kernel (`BVHAccelerator.closest_hit`, float64 arrays, no checks or 
 on its native input: embreex (`rtcIntersect1` per ray, two Python threads), Open3D `cast_rays` (Embree inside),
 Mitsuba 3 `llvm_ad_rgb` (Embree packets; needs libLLVM, e.g. `apt-get install libllvm19` and
 DRJIT_LIBLLVM_PATH) and `scalar_rgb` (one Python call per ray, on a subset). Each figure is the median of
---repeat timed calls; every round times every engine once, in turn. Agreement: hit/miss and relative t against
+--repeat timed calls; every round times every engine once, in turn, each round starting one engine later (the
+engine timed right after Mitsuba ran up to 3x slow: its threads stay busy for a while), with SETTLE seconds of
+rest before each call. Agreement: hit/miss and relative t against
 durer's `cast_rays`. Meshes: the Stanford bunny and its subdivision (Stanford Computer Graphics Laboratory), read
 from ../shared/meshes or --meshes, never shipped.
 """
@@ -41,7 +43,7 @@ from durer.scene.graph import Group, Scene
 from durer.scene.shapes import TriangleMesh
 
 LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
-SETTLE = 0.2  # seconds of rest before each timed call
+SETTLE = 0.5  # seconds of rest before each timed call
 SCALAR_RAYS = 1 << 15  # Mitsuba scalar_rgb is a Python loop: timed on this many of the rays
 
 
@@ -230,8 +232,10 @@ def bench_case(name: str, case: dict, engines: dict, repeat: int) -> dict:
         casts[e] = make(case)
     times: dict[str, list[float]] = {e: [] for e in casts}
     outs = {}
-    for _ in range(repeat):
-        for e, (_, cast) in casts.items():
+    names = list(casts)
+    for r in range(repeat):
+        for e in names[r % len(names):] + names[:r % len(names)]:  # each round starts one engine later
+            cast = casts[e][1]
             time.sleep(SETTLE)  # the previous engine's worker threads stop spinning (TBB, OpenMP, Dr.Jit)
             start = time.perf_counter()
             outs[e] = cast()
