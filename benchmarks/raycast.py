@@ -11,9 +11,9 @@ them durer's kernel (`BVHAccelerator.closest_hit`, float64 arrays, no checks or 
 on its native input: embreex (`rtcIntersect1` per ray, two Python threads), Open3D `cast_rays` (Embree inside),
 Mitsuba 3 `llvm_ad_rgb` (Embree packets; needs libLLVM, e.g. `apt-get install libllvm19` and
 DRJIT_LIBLLVM_PATH) and `scalar_rgb` (one Python call per ray, on a subset). Each figure is the median of
---repeat timed calls; every round times every engine once, in turn, each round starting one engine later (the
-engine timed right after Mitsuba ran up to 3x slow: its threads stay busy for a while), with SETTLE seconds of
-rest before each call. Agreement: hit/miss and relative t against
+--repeat timed calls; every round times every engine once, in turn, each round starting one engine later, with
+SETTLE seconds of rest before each call; Mitsuba's memory cache is flushed after each of its calls (while Dr.Jit
+held it, the next engine ran up to 3x slow). Agreement: hit/miss and relative t against
 durer's `cast_rays`. Meshes: the Stanford bunny and its subdivision (Stanford Computer Graphics Laboratory), read
 from ../shared/meshes or --meshes, never shipped.
 """
@@ -45,6 +45,7 @@ from durer.scene.shapes import TriangleMesh
 LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
 SETTLE = 0.5  # seconds of rest before each timed call
 SCALAR_RAYS = 1 << 15  # Mitsuba scalar_rgb is a Python loop: timed on this many of the rays
+AFTER_CALL: list = []  # called after every timed call, untimed
 
 
 def agreement(t_ref: np.ndarray, t: np.ndarray) -> str:
@@ -164,6 +165,10 @@ def mitsuba_llvm(v, f, threads):
 
     mi.set_variant("llvm_ad_rgb")
     dr.set_thread_count(threads)
+    # Dr.Jit keeps freed arrays in its own cache; while it holds them, the next engine's calls ran 1.5-3x slower
+    # (durer's cast_rays 0.25 -> 0.5-0.7 s for a million rays, even 2 s later): hand the memory back after each call
+    if dr.flush_malloc_cache not in AFTER_CALL:
+        AFTER_CALL.append(dr.flush_malloc_cache)
     b, scene = timed_build(lambda: _mitsuba_scene(mi, v, f))
 
     def make(case):
@@ -240,6 +245,8 @@ def bench_case(name: str, case: dict, engines: dict, repeat: int) -> dict:
             start = time.perf_counter()
             outs[e] = cast()
             times[e].append(time.perf_counter() - start)
+            for hook in AFTER_CALL:  # untimed
+                hook()
     ref = outs["durer cast_rays"]
     print(f"\n### {name}: {len(case['o']):,} rays, {100 * np.isfinite(ref).mean():.1f}% hit")
     print("| engine | Mrays/s | durer cast_rays / engine | agreement with durer cast_rays |")
