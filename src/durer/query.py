@@ -25,14 +25,17 @@ from .kernels.rays import first_problem, n_chunks, split_rays
 __all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
 
 
-def _numeric_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
-    """a as a float64 array (..., *shape_tail), not necessarily contiguous; ValueError naming `name` otherwise."""
+def _numeric_array(name: str, a, shape_tail: tuple[int, ...], keep_float32: bool = False) -> np.ndarray:
+    """a as a float64 array (..., *shape_tail), not necessarily contiguous (float32 kept as it is with
+    keep_float32: the ray check converts while it copies); ValueError naming `name` otherwise."""
     arr = np.asarray(a)
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
     if arr.ndim < len(shape_tail) or tuple(arr.shape[arr.ndim - len(shape_tail):]) != shape_tail:
         want = "(..., " + ", ".join(map(str, shape_tail)) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if keep_float32 and arr.dtype == np.float32:
+        return arr
     return arr.astype(np.float64, copy=False)
 
 
@@ -159,13 +162,13 @@ class RaycastingScene:
             rays = np.asarray(origins)
             if rays.ndim < 1 or rays.shape[-1] != 6:
                 raise ValueError(f"rays must have shape (..., 6) when no directions are given, got {rays.shape}")
-            rays = _numeric_array("rays", rays, (6,))
+            rays = _numeric_array("rays", rays, (6,), keep_float32=True)
             lead = rays.shape[:-1]
             rays = rays.reshape(-1, 6)
             src_o, src_d, names = rays[:, :3], rays[:, 3:], ("rays", "rays")
         else:
-            src_o = _numeric_array("origins", origins, (3,))
-            src_d = _numeric_array("directions", directions, (3,))
+            src_o = _numeric_array("origins", origins, (3,), keep_float32=True)
+            src_d = _numeric_array("directions", directions, (3,), keep_float32=True)
             if src_o.shape != src_d.shape:
                 raise ValueError(f"origins {src_o.shape} and directions {src_d.shape} must have the same shape")
             lead = src_o.shape[:-1]
