@@ -351,3 +351,25 @@ def test_list_intersections_names_the_instance_of_every_hit(sphere_mesh):
     assert per_ray[0].tolist() == [a, a, b, b] and per_ray[1].tolist() == [b, b, a, a] and per_ray[2].tolist() == [b, b]
     first = li["ray_splits"][:-1]
     np.testing.assert_array_equal(li["geometry_ids"][first], s.cast_rays(o, d)["geometry_ids"])
+
+
+def test_float32_rays_give_the_float64_results_and_errors(sphere_mesh):
+    """float32 rays are converted by the ray check itself: same hits as the same values in float64, and the same
+    errors for NaN and zero directions."""
+    s = RaycastingScene()
+    s.add_triangles(sphere_mesh.vertices, sphere_mesh.faces)
+    rng = np.random.default_rng(8)
+    o = rng.uniform(-3, 3, (500, 3))
+    rays = np.concatenate([o, rng.uniform(-1.5, 1.5, (500, 3)) - o], 1).astype(np.float32)  # some hit the sphere
+    ref = s.cast_rays(rays.astype(np.float64))
+    assert 0.1 < np.isfinite(ref["t_hit"]).mean() < 0.9
+    for got in (s.cast_rays(rays), s.cast_rays(rays[:, :3], rays[:, 3:])):
+        for key in ("t_hit", "primitive_ids", "primitive_uvs", "primitive_normals"):
+            np.testing.assert_array_equal(got[key], ref[key])
+    bad = rays.copy()
+    bad[7, 4] = np.nan
+    with pytest.raises(ValueError, match=r"rays contains NaN or infinity \(ray 7\)"):
+        s.cast_rays(bad)
+    bad[7, 3:] = 0.0
+    with pytest.raises(ValueError, match="direction 7 is zero"):
+        s.test_occlusions(bad[:, :3], bad[:, 3:])
