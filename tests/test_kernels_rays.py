@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from durer.kernels.rays import CHUNK, first_problem, n_chunks, split_checked_rays
+from durer.kernels.rays import CHUNK, first_problem, n_chunks, split_rays
 
 
 def _split(rays: np.ndarray):
     n = len(rays)
     o, d = np.empty((n, 3)), np.empty((n, 3))
     first = np.empty((n_chunks(n), 3), np.int64)
-    split_checked_rays(rays[:, :3], rays[:, 3:], o, d, first)
+    split_rays(rays[:, :3], rays[:, 3:], o, d, first)
     return o, d, first_problem(first)
 
 

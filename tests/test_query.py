@@ -293,6 +293,48 @@ def test_create_rays_pinhole_depth_map_of_a_plane():
         RaycastingScene.create_rays_pinhole(60, (0, 0, 0), (0, 0, 5), (0, 0, 1), 4, 4)
 
 
+def test_flat_image_width_finds_camera_rows():
+    """Flat rays in an image's row order are recognised (pinhole and orthographic), anything else is not."""
+    from durer.query import flat_image_width
+
+    rays = RaycastingScene.create_rays_pinhole(60, [0, 0, 0], [0, 0, 3], [0, 1, 0], 64, 48).reshape(-1, 6)
+    assert flat_image_width(rays[:, :3], rays[:, 3:]) == 64
+    wide = RaycastingScene.create_rays_pinhole(100, [0, 0, 0], [0, 0, 3], [0, 1, 0], 40, 8).reshape(-1, 6)
+    assert flat_image_width(wide[:, :3], wide[:, 3:]) == 40
+    j, i = np.meshgrid(np.arange(32.0), np.arange(16.0))
+    ortho_o = np.stack([0.1 * j, -0.1 * i, np.zeros_like(i)], -1).reshape(-1, 3)
+    ortho_d = np.tile([0.0, 0.0, -1.0], (len(ortho_o), 1))
+    assert flat_image_width(ortho_o, ortho_d) == 32
+    odd = RaycastingScene.create_rays_pinhole(60, [0, 0, 0], [0, 0, 3], [0, 1, 0], 30, 20).reshape(-1, 6)
+    assert flat_image_width(odd[:, :3], odd[:, 3:]) == 0        # rows not a multiple of 4 long
+    short = RaycastingScene.create_rays_pinhole(60, [0, 0, 0], [0, 0, 3], [0, 1, 0], 64, 6).reshape(-1, 6)
+    assert flat_image_width(short[:, :3], short[:, 3:]) == 0    # 6 rows: not whole 4-row bands
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(4096, 3))
+    assert flat_image_width(rng.normal(size=(4096, 3)), d) == 0
+    assert flat_image_width(np.zeros((4096, 3)), np.tile([0.0, 0.0, 1.0], (4096, 1))) == 0  # one ray repeated
+    shuffled = rng.permutation(len(rays))
+    assert flat_image_width(rays[shuffled, :3], rays[shuffled, 3:]) == 0
+
+
+def test_flat_camera_rays_hit_as_the_image_and_as_single_rays(sphere_mesh):
+    """Flat camera rays (traced in 4 x 4 tiles once their width is recognised), the same rays as an image, and
+    the same rays shuffled (traced one at a time) give the same t to the bit and the same hit/miss."""
+    s = RaycastingScene()
+    s.add_triangles(sphere_mesh.vertices, sphere_mesh.faces)
+    rays = RaycastingScene.create_rays_pinhole(50, [0, 0, 0], [0.3, 0.2, 3], [0, 1, 0], 64, 48)
+    image = s.cast_rays(rays)["t_hit"].reshape(-1)
+    flat = s.cast_rays(rays[..., :3].reshape(-1, 3), rays[..., 3:].reshape(-1, 3))["t_hit"]
+    perm = np.random.default_rng(5).permutation(64 * 48)
+    single = np.empty(64 * 48)
+    single[perm] = s.cast_rays(rays.reshape(-1, 6)[perm])["t_hit"]
+    assert 0.3 < np.isfinite(image).mean() < 0.9
+    np.testing.assert_array_equal(flat, image)
+    np.testing.assert_array_equal(single, image)
+    occluded = s.test_occlusions(rays[..., :3].reshape(-1, 3), rays[..., 3:].reshape(-1, 3))
+    np.testing.assert_array_equal(occluded, np.isfinite(image))
+
+
 def test_list_intersections_names_the_instance_of_every_hit(sphere_mesh):
     """Two placements of one mesh (the two-level kernels): every listed hit names the instance it was found in,
     and a ray's first listed hit is cast_rays' closest hit, with the same geometry id."""
@@ -309,3 +351,25 @@ def test_list_intersections_names_the_instance_of_every_hit(sphere_mesh):
     assert per_ray[0].tolist() == [a, a, b, b] and per_ray[1].tolist() == [b, b, a, a] and per_ray[2].tolist() == [b, b]
     first = li["ray_splits"][:-1]
     np.testing.assert_array_equal(li["geometry_ids"][first], s.cast_rays(o, d)["geometry_ids"])
+
+
+def test_float32_rays_give_the_float64_results_and_errors(sphere_mesh):
+    """float32 rays are converted by the ray check itself: same hits as the same values in float64, and the same
+    errors for NaN and zero directions."""
+    s = RaycastingScene()
+    s.add_triangles(sphere_mesh.vertices, sphere_mesh.faces)
+    rng = np.random.default_rng(8)
+    o = rng.uniform(-3, 3, (500, 3))
+    rays = np.concatenate([o, rng.uniform(-1.5, 1.5, (500, 3)) - o], 1).astype(np.float32)  # some hit the sphere
+    ref = s.cast_rays(rays.astype(np.float64))
+    assert 0.1 < np.isfinite(ref["t_hit"]).mean() < 0.9
+    for got in (s.cast_rays(rays), s.cast_rays(rays[:, :3], rays[:, 3:])):
+        for key in ("t_hit", "primitive_ids", "primitive_uvs", "primitive_normals"):
+            np.testing.assert_array_equal(got[key], ref[key])
+    bad = rays.copy()
+    bad[7, 4] = np.nan
+    with pytest.raises(ValueError, match=r"rays contains NaN or infinity \(ray 7\)"):
+        s.cast_rays(bad)
+    bad[7, 3:] = 0.0
+    with pytest.raises(ValueError, match="direction 7 is zero"):
+        s.test_occlusions(bad[:, :3], bad[:, 3:])

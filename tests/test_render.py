@@ -202,3 +202,15 @@ def test_a_scene_without_lights_is_flat_colour_whatever_the_tracer_flags():
     traced = durer.render(scene, 12, 12, shadows=True, bounces=3)
     np.testing.assert_array_equal(traced.color, plain.color)
     assert traced.color[6, 6].tolist() == [1.0, 0.0, 0.0] and traced.color[0, 0].tolist() == [0.0, 0.0, 1.0]
+
+
+def test_batches_are_whole_bands_of_tile_rows_for_one_ray_per_pixel():
+    """One ray per pixel, row by row: each batch is whole 4-row bands (so the BVH can trace 4 x 4 tiles);
+    otherwise the fixed CHUNK."""
+    from durer.rendering.renderer import CHUNK, _chunk
+
+    assert _chunk(200 * 200, 200, 200) == 8000           # 10 bands of 4 rows of 200
+    assert _chunk(4096 * 64, 4096, 64) == 4 * 4096       # a band wider than CHUNK: one band a batch
+    assert _chunk(4 * 200 * 200, 200, 200) == CHUNK      # several samples per pixel
+    assert _chunk(202 * 200, 202, 200) == CHUNK          # rows not a multiple of 4 long
+    assert _chunk(200 * 198, 200, 198) == CHUNK          # not whole bands

@@ -17,22 +17,25 @@ import os
 
 import numpy as np
 
-from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH
+from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH, flat_image_width
 from .kernels.bvh_trace import image_width
 from .kernels.layout import SPHERE
-from .kernels.rays import first_problem, n_chunks, split_checked_rays
+from .kernels.rays import first_problem, n_chunks, split_rays
 
-__all__ = ["INVALID_ID", "RaycastingScene"]
+__all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
 
 
-def _numeric_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
-    """a as a float64 array (..., *shape_tail), not necessarily contiguous; ValueError naming `name` otherwise."""
+def _numeric_array(name: str, a, shape_tail: tuple[int, ...], keep_float32: bool = False) -> np.ndarray:
+    """a as a float64 array (..., *shape_tail), not necessarily contiguous (float32 kept as it is with
+    keep_float32: the ray check converts while it copies); ValueError naming `name` otherwise."""
     arr = np.asarray(a)
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
     if arr.ndim < len(shape_tail) or tuple(arr.shape[arr.ndim - len(shape_tail):]) != shape_tail:
         want = "(..., " + ", ".join(map(str, shape_tail)) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if keep_float32 and arr.dtype == np.float32:
+        return arr
     return arr.astype(np.float64, copy=False)
 
 
@@ -159,13 +162,13 @@ class RaycastingScene:
             rays = np.asarray(origins)
             if rays.ndim < 1 or rays.shape[-1] != 6:
                 raise ValueError(f"rays must have shape (..., 6) when no directions are given, got {rays.shape}")
-            rays = _numeric_array("rays", rays, (6,))
+            rays = _numeric_array("rays", rays, (6,), keep_float32=True)
             lead = rays.shape[:-1]
             rays = rays.reshape(-1, 6)
             src_o, src_d, names = rays[:, :3], rays[:, 3:], ("rays", "rays")
         else:
-            src_o = _numeric_array("origins", origins, (3,))
-            src_d = _numeric_array("directions", directions, (3,))
+            src_o = _numeric_array("origins", origins, (3,), keep_float32=True)
+            src_d = _numeric_array("directions", directions, (3,), keep_float32=True)
             if src_o.shape != src_d.shape:
                 raise ValueError(f"origins {src_o.shape} and directions {src_d.shape} must have the same shape")
             lead = src_o.shape[:-1]
@@ -173,7 +176,7 @@ class RaycastingScene:
         n = src_o.shape[0]
         o, d = np.empty((n, 3)), np.empty((n, 3))
         first = np.empty((n_chunks(n), 3), np.int64)
-        split_checked_rays(src_o, src_d, o, d, first)
+        split_rays(src_o, src_d, o, d, first)
         bad, part, zero = first_problem(first)
         if bad >= 0:
             raise ValueError(f"{names[part]} contains NaN or infinity (ray {bad})")
@@ -194,6 +197,11 @@ class RaycastingScene:
             raise ValueError(f"{name} of shape {a.shape} does not broadcast to the rays' shape {lead}") from None
         return np.ascontiguousarray(a).reshape(-1)
 
+    @staticmethod
+    def _width(o, d, lead) -> int:
+        """The kernels' `width`: the image's when the rays are (H, W, ...) or flat rays follow an image's rows."""
+        return image_width(lead) if len(lead) != 1 else flat_image_width(o, d)
+
     def cast_rays(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
         """Closest hit of each ray. origins and directions (..., 3), or one (..., 6) array of both.
 
@@ -204,21 +212,24 @@ class RaycastingScene:
         """
         o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
         tree = self._tree()
-        t, inst, kind, prim, u, v = tree.closest_hit(o, d, lo, hi, image_width(lead))
+        t, inst, kind, prim, u, v = tree.closest_hit(o, d, lo, hi, self._width(o, d, lead))
         normals = tree.normals(o, d, t, inst, kind, prim)
-        prim = np.where(kind == SPHERE, 0, prim).astype(np.int32)
+        if any(len(shape.radius) for shape in self._shapes):
+            prim[kind == SPHERE] = 0  # a sphere is primitive 0 of its geometry
+        uv = np.empty((len(t), 2))
+        uv[:, 0], uv[:, 1] = u, v
         return {
             "t_hit": t.reshape(lead),
             "geometry_ids": inst.reshape(lead),
             "primitive_ids": prim.reshape(lead),
-            "primitive_uvs": np.stack([u, v], axis=-1).reshape(*lead, 2),
+            "primitive_uvs": uv.reshape(*lead, 2),
             "primitive_normals": normals.reshape(*lead, 3),
         }
 
     def test_occlusions(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> np.ndarray:
         """True for each ray that hits anything with t_min < t < t_max (stops at the first hit found)."""
         o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
-        out = self._tree().any_hit(o, d, lo, hi, image_width(lead))
+        out = self._tree().any_hit(o, d, lo, hi, self._width(o, d, lead))
         return out.reshape(lead)
 
     def count_intersections(self, origins, directions=None, t_min: float = 0.0,

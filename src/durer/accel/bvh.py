@@ -23,6 +23,7 @@ import numpy as np
 from ..kernels.bvh_build import build_wide_bvh, item_boxes, leaf_items
 from ..kernels.bvh_trace import any_hit_bvh, closest_hit_bvh
 from ..kernels.instances import (
+    NORMALS_CHUNK,
     all_hits_instances,
     any_hit_instances,
     closest_hit_instances,
@@ -30,7 +31,7 @@ from ..kernels.instances import (
     rays_to_object,
 )
 from ..kernels.layout import MAX_LEAF, MISS, SPHERE, TILE, TRIANGLE, leaf_codes, leaf_slots, stack_size_for
-from ..kernels.threads import run_blocks
+from ..kernels.threads import run_blocks, run_pieces
 from .compile import CompiledScene, sphere_bounds
 from .hits import Hits, per_ray
 
@@ -168,6 +169,10 @@ class TwoLevelBVH:
             raise ValueError("scene too large for 32-bit leaf codes")
         child, leaf_prim = [], []
         for s, no, so, ho in zip(shapes, node_off, slot_off, sph_off, strict=True):
+            if len(shapes) == 1:  # nothing to offset: the shape's own arrays, not copies (80 MB at 1.1M triangles)
+                child.append(s.tree.child)
+                leaf_prim.append(s.tree.leaf_prim)
+                break
             c = s.tree.child.astype(np.int64)
             first, count = leaf_slots(np.where(c < 0, c, -1))
             c = np.where(c > 0, c + no, c)
@@ -175,10 +180,12 @@ class TwoLevelBVH:
             child.append(c)
             p = s.tree.leaf_prim
             leaf_prim.append(np.where(p >= 0, p, p - ho))
-        cat = np.concatenate
+        def cat(arrays):
+            return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+
         bounds = cat([s.tree.bounds for s in shapes]) if shapes else np.zeros((0, 6, 4), np.float32)
-        child_all = cat(child).astype(np.int32) if child else np.zeros((0, 4), np.int32)
-        lp = cat(leaf_prim).astype(np.int32) if leaf_prim else np.zeros(0, np.int32)
+        child_all = cat(child).astype(np.int32, copy=False) if child else np.zeros((0, 4), np.int32)
+        lp = cat(leaf_prim).astype(np.int32, copy=False) if leaf_prim else np.zeros(0, np.int32)
         lt = cat([s.tree.leaf_tri for s in shapes]) if shapes else np.zeros((0, 9))
         sph_c = cat([s.center for s in shapes]) if shapes else np.zeros((0, 3))
         sph_r = cat([s.radius for s in shapes]) if shapes else np.zeros(0)
@@ -335,15 +342,56 @@ class TwoLevelBVH:
         out = np.zeros((len(t), 3))
         if self.instances:
             p = self.packed
-            hit_normals(o, d, t, inst, kind, prim, p.inst_shape, p.tri_off, p.normals, p.w2o, p.inst_sign,
-                        p.blas[4], out)
+            run_pieces(hit_normals, -(-len(t) // NORMALS_CHUNK), o, d, t, inst, kind, prim, p.inst_shape,
+                       p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas[4], out)
         return out
 
 
 # ---------------------------------------------------------------------------------------- the renderer's accelerator
-def _checked_width(width: int, n: int) -> int:
-    """width if n rays form whole rows of 4 x 4 tiles that wide, else 0 (rays in their given order)."""
-    width = int(width)
+_PROBE = 16384  # leading rays looked at to find the row length of flat rays (widths up to this)
+
+
+def flat_image_width(o: np.ndarray, d: np.ndarray) -> int:
+    """The width of the image whose rows flat (N, 3) rays follow (a camera's rays reshaped to (N, 3), row by
+    row), so the kernels can trace them in 4 x 4 tiles as they do an (H, W, ...) array; 0 when they do not look
+    like one: the first jump between consecutive rays (4x the first step) must end a row whose length is a
+    multiple of 4 dividing N in whole 4-row bands, and 64 rays spread over the batch must lie as close to the
+    ray one row below as to their neighbour. Only speed depends on the answer: the packet kernels find the
+    same hits in any order (t to the bit)."""
+    n = len(o)
+    if n < TILE * TILE * 4:
+        return 0
+    k = min(n, _PROBE + 1)
+    extent = float(np.ptp(o[:257], axis=0).max())
+    scale = 1.0 / extent if extent > 0.0 else 0.0  # origins count in units of the first rays' spread
+
+    def gap(a, b):
+        return np.abs(o[a] - o[b]).sum(axis=-1) * scale + np.abs(d[a] - d[b]).sum(axis=-1)
+
+    base = float(gap(0, 1))
+    if not base > 0.0:
+        return 0
+    jumps = np.zeros(0, np.int64)
+    for m in (257, 2049, k):  # widening windows: a short row is found without looking at 16k rays
+        m = min(m, k)
+        jumps = np.flatnonzero(gap(slice(0, m - 1), slice(1, m)) > 4.0 * base)
+        if len(jumps) or m == k:
+            break
+    if len(jumps) == 0:
+        return 0
+    w = int(jumps[0]) + 1
+    if w % TILE or n % (TILE * w):
+        return 0
+    i = np.linspace(0, n - w - 1, 64).astype(np.int64)
+    return w if bool(np.all(gap(i, i + w) <= 4.0 * base)) else 0
+
+
+def _checked_width(width: int, o: np.ndarray, d: np.ndarray) -> int:
+    """width if the rays form whole rows of 4 x 4 tiles that wide; not given (0): the width flat_image_width
+    finds (a renderer's camera rays, row by row); else 0 (rays in their given order)."""
+    width, n = int(width), len(o)
+    if width == 0:
+        return flat_image_width(o, d)
     return width if width > 0 and width % TILE == 0 and n % (TILE * width) == 0 else 0
 
 
@@ -391,7 +439,7 @@ class BVHAccelerator:
         o = np.ascontiguousarray(origins, dtype=np.float64)
         d = np.ascontiguousarray(directions, dtype=np.float64)
         lo, hi = per_ray(t_min, n), per_ray(t_max, n)
-        run_blocks(closest_hit_bvh, n, o, d, lo, hi, *self._args(), _checked_width(width, n),
+        run_blocks(closest_hit_bvh, n, o, d, lo, hi, *self._args(), _checked_width(width, o, d),
                    h.t, h.kind, h.prim, h.u, h.v)
         if self.instances is not None and n:
             self._closest_instances(o, d, lo, np.minimum(hi, h.t), h)
@@ -417,7 +465,7 @@ class BVHAccelerator:
         o = np.ascontiguousarray(origins, dtype=np.float64)
         d = np.ascontiguousarray(directions, dtype=np.float64)
         lo, hi = per_ray(t_min, n), per_ray(t_max, n)
-        run_blocks(any_hit_bvh, n, o, d, lo, hi, *self._args(), _checked_width(width, n), out)
+        run_blocks(any_hit_bvh, n, o, d, lo, hi, *self._args(), _checked_width(width, o, d), out)
         if self.instances is not None and n and not out.all():
             rest = np.flatnonzero(~out)
             out[rest] = self.instances.any_hit(np.ascontiguousarray(o[rest]), np.ascontiguousarray(d[rest]),

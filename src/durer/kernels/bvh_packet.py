@@ -19,7 +19,22 @@ import numba as nb
 import numpy as np
 
 from .intersect import shear_axes, sphere_hit_in_object_space
-from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, PACKET, TILE, WIDTH, leaf_range
+from .layout import (
+    FAR_WIDEN,
+    HI_X,
+    HI_Y,
+    HI_Z,
+    JIT,
+    LO_X,
+    LO_Y,
+    LO_Z,
+    NODE_FLOATS,
+    PACKET,
+    PACKET_CONE,
+    TILE,
+    WIDTH,
+    leaf_range,
+)
 
 # Scratch rows of `rr` (float64, (_NROW, PACKET)):
 (_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
@@ -48,20 +63,25 @@ def chunk_rays(c, n, width, idx):
 
 
 @nb.njit(**JIT)
-def packet_setup(origins, directions, t_min, t_max, idx, n, rr):
+def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
     """Load rays idx[:n] into the scratch rows (padding rays never hit) and return (coherent, nrx, nry, nrz,
-    kx, ky, kz): coherent when all n rays share direction signs and axis permutation. Only then are the
-    per-ray constants computed (in a loop over rays that vectorises, with ray_setup's exact operations)."""
+    kx, ky, kz): coherent when all n rays share direction signs and axis permutation, their directions lie
+    within PACKET_CONE of the first ray's and their origins within max_spread of each other (packet_spread_limit)
+    on every axis. Only then are the per-ray constants computed (in a loop over rays that vectorises, with
+    ray_setup's exact operations)."""
     i0 = idx[0]
-    kx0, ky0, kz0 = shear_axes(directions[i0, 0], directions[i0, 1], directions[i0, 2])
-    s0 = (directions[i0, 0] < 0.0) + 2 * (directions[i0, 1] < 0.0) + 4 * (directions[i0, 2] < 0.0)
+    dx0, dy0, dz0 = directions[i0, 0], directions[i0, 1], directions[i0, 2]
+    kx0, ky0, kz0 = shear_axes(dx0, dy0, dz0)
+    s0 = (dx0 < 0.0) + 2 * (dy0 < 0.0) + 4 * (dz0 < 0.0)
+    cone0 = PACKET_CONE * np.sqrt(dx0 * dx0 + dy0 * dy0 + dz0 * dz0)
     coherent = True
     for k in range(PACKET):
         i = idx[k] if k < n else i0
         dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
         kx, ky, kz = shear_axes(dx, dy, dz)
         sgn = (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0)
-        if sgn != s0 or kx != kx0 or ky != ky0 or kz != kz0:
+        if (sgn != s0 or kx != kx0 or ky != ky0 or kz != kz0
+                or dx * dx0 + dy * dy0 + dz * dz0 < cone0 * np.sqrt(dx * dx + dy * dy + dz * dz)):
             coherent = False
             break
         rr[_OX, k], rr[_OY, k], rr[_OZ, k] = origins[i, 0], origins[i, 1], origins[i, 2]
@@ -70,6 +90,13 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr):
             rr[_TMIN, k], rr[_BEST, k] = t_min[i], t_max[i]
         else:
             rr[_TMIN, k], rr[_BEST, k] = np.inf, -np.inf
+    if coherent:
+        for row in (_OX, _OY, _OZ):
+            lo = hi = rr[row, 0]
+            for k in range(1, PACKET):
+                lo, hi = min(lo, rr[row, k]), max(hi, rr[row, k])
+            if hi - lo > max_spread:
+                coherent = False
     if not coherent:
         return False, 0, 4, 8, kx0, ky0, kz0
     for k in range(PACKET):

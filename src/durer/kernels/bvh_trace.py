@@ -29,7 +29,7 @@ from .bvh_packet import (
     packet_traverse,
 )
 from .bvh_single import blas_any, blas_closest, load_ray, planes_closest
-from .layout import BLOCK, JIT, MISS, PACKET, PLANE, SPHERE, TILE, TRIANGLE
+from .layout import BLOCK, JIT, MISS, PACKET, PLANE, SPHERE, TILE, TRIANGLE, packet_spread_limit
 
 
 @nb.njit(**JIT, inline="always")
@@ -51,11 +51,12 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
     stack_node, stack_t, dist, rr, key, order, idx = scratch(stack_size)
+    spread = packet_spread_limit(bounds, child)
     pprims = np.empty(PACKET, np.int32)
     for blk in range(blk0, blk1):
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
             m = chunk_rays(c, n, width, idx)
-            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr)
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
             if coherent and m == PACKET:
                 for k in range(PACKET):
                     best, pprims[k] = planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
@@ -104,10 +105,11 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
     stack_node, stack_t, dist, rr, key, order, idx = scratch(stack_size)
+    spread = packet_spread_limit(bounds, child)
     for blk in range(blk0, blk1):
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
             m = chunk_rays(c, n, width, idx)
-            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr)
+            coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
             if coherent and m == PACKET:
                 for k in range(PACKET):
                     _, pprim = planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],

@@ -37,13 +37,16 @@ def rays_to_object(origins, directions, w2o, out_o, out_d):
                                    directions[i, 0], directions[i, 1], directions[i, 2])
 
 
-@nb.njit(**JIT, parallel=True)
+NORMALS_CHUNK = 8192  # rays per work item of hit_normals
+
+
+@nb.njit(**JIT)
 def hit_normals(origins, directions, t, inst, kind, prim, inst_shape, tri_off, tri_normals, inst_w2o, inst_sign,
-                sph_center, out):
+                sph_center, out, c0, c1):
     """Unit world-space normal of each closest hit (zero on a miss). Triangles: the stored object-space normal
     by the instance's inverse transpose, flipped under a mirror as moved vertices would flip the winding;
     spheres: outward, from the hit point in object space."""
-    for i in nb.prange(t.shape[0]):
+    for i in range(c0 * NORMALS_CHUNK, min(t.shape[0], c1 * NORMALS_CHUNK)):  # chunks c0..c1 (threads.run_pieces)
         k = inst[i]
         nx = ny = nz = 0.0
         if kind[i] == TRIANGLE:

@@ -45,6 +45,30 @@ RAY_CHUNK = 64        # rays per parallel work item: neighbouring (coherent) ray
 TILE = 4              # an image's rays are traced in TILE x TILE packets
 PACKET = TILE * TILE  # rays in a packet
 BLOCK = 8             # packets per parallel work item of the one-level kernels (amortises the scratch)
+# a packet's rays must also be close: directions within PACKET_CONE (cosine, 20 degrees) of its first ray's and
+# origins within PACKET_SPREAD of the tree's extent; else its interval bounds sweep much of the tree and every
+# leaf met is tested for all 16 rays (measured: 65k random rays sorted by origin, 175x slower than one by one).
+# Camera rays pass (tiles of a 48 x 48 image of 43 degrees, orthographic ones 1/6 of the scene wide).
+PACKET_CONE = 0.94
+PACKET_SPREAD = 0.25
+
+
+@nb.njit(**JIT)
+def packet_spread_limit(bounds, child):
+    """The largest origin spread (max over axes) a coherent packet may have: PACKET_SPREAD times the largest
+    side of the box around the root's children (0 for an empty tree, whose packets cost nothing anyway)."""
+    if child.shape[0] == 0:
+        return 0.0
+    side = 0.0
+    for axis in range(3):
+        lo, hi = np.inf, -np.inf
+        for lane in range(WIDTH):
+            if child[0, lane] != 0:
+                lo = min(lo, np.float64(bounds[LO_X + axis * WIDTH + lane]))
+                hi = max(hi, np.float64(bounds[HI_X + axis * WIDTH + lane]))
+        if hi > lo:
+            side = max(side, hi - lo)
+    return side * PACKET_SPREAD
 
 
 @nb.njit(**JIT, inline="always")

@@ -3,7 +3,8 @@
 `RaycastingScene` takes origins and directions as two (N, 3) arrays or as one (N, 6) array; the traversal
 kernels want two C-contiguous float64 (N, 3) arrays, and every ray must be finite with a non-zero direction.
 NumPy would copy each column block and check each condition in a pass of its own (about a quarter of a query's
-time on a million rays); this does it all in one pass, on every thread.
+time on a million rays); this does it all in one pass, on every thread (threads.run_pieces: serial nogil chunks
+on a thread pool, not a parallel=True region).
 """
 
 from __future__ import annotations
@@ -11,16 +12,23 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from .threads import run_pieces
+
 CHUNK = 8192  # rays per parallel work item
 
 
-@nb.njit(cache=True, nogil=True, parallel=True)
-def split_checked_rays(src_o, src_d, o, d, first):
-    """o, d = src_o, src_d as float64 (src may be strided views, e.g. the two halves of an (N, 6) array).
-    first[c] = (first ray of chunk c with a NaN or infinity, 0 if it is in the origin and 1 if in the
-    direction, first ray of chunk c whose direction is zero), -1 where there is none."""
+def split_rays(src_o, src_d, o, d, first) -> None:
+    """split_checked_rays over all chunks, on every thread."""
+    run_pieces(split_checked_rays, n_chunks(len(src_o)), src_o, src_d, o, d, first)
+
+
+@nb.njit(cache=True, nogil=True)
+def split_checked_rays(src_o, src_d, o, d, first, c0, c1):
+    """o, d = src_o, src_d as float64 for the rays of chunks c0..c1 (src may be strided views, e.g. the two
+    halves of an (N, 6) array). first[c] = (first ray of chunk c with a NaN or infinity, 0 if it is in the
+    origin and 1 if in the direction, first ray of chunk c whose direction is zero), -1 where there is none."""
     n = src_o.shape[0]
-    for c in nb.prange((n + CHUNK - 1) // CHUNK):
+    for c in range(c0, c1):
         bad, where, zero = -1, -1, -1
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             ox, oy, oz = np.float64(src_o[i, 0]), np.float64(src_o[i, 1]), np.float64(src_o[i, 2])

@@ -16,6 +16,7 @@ from ..accel.grid import GridAccelerator
 from ..accel.hits import Accelerator
 from ..accel.stats import CountingAccelerator, RayStats
 from ..io.images import depth_visualization, encode_srgb, normal_visualization, save_image
+from ..kernels.layout import TILE
 from ..options import RenderOptions
 from ..scene.bsdfs import BSDF, Surface
 from ..scene.cameras import frame_sphere
@@ -238,9 +239,10 @@ def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True
     depth = np.full(n, np.inf)
     normals = np.zeros((n, 3))
     idx = np.flatnonzero(valid)
+    step = _chunk(len(idx), width, height)
     with _progress(len(idx), quiet) as bar:
-        for lo in range(0, len(idx), CHUNK):
-            sel = idx[lo:lo + CHUNK]
+        for lo in range(0, len(idx), step):
+            sel = idx[lo:lo + step]
             r: SampleResult = integrate(ctx, origins[sel], directions[sel], camera.t_min)
             color[sel], depth[sel], normals[sel] = r.color, r.t, r.normal
             bar.update(len(sel))
@@ -301,6 +303,16 @@ def kernels_cold(folder: str | None = None) -> bool:
     except OSError:
         return True
     return not all(any(n.startswith(m + ".") and n.endswith(".nbi") for n in names) for m in COLD_CHECK)
+
+
+def _chunk(n_rays: int, width: int, height: int) -> int:
+    """Rays per batch: CHUNK, rounded to whole bands of TILE image rows when the rays are the pixels' own, row
+    by row (one sample per pixel, every ray valid), so each batch is whole 4 x 4 tiles, which the BVH finds
+    (accel/bvh.flat_image_width) and traces as packets."""
+    band = TILE * width
+    if n_rays != width * height or height % TILE or width % TILE:
+        return CHUNK
+    return max(1, CHUNK // band) * band
 
 
 def _nearest_to_centre(points: np.ndarray, pixel: np.ndarray, width: int, height: int) -> np.ndarray:
