@@ -22,10 +22,11 @@ import numpy as np
 from ..kernels.closest import closest_points_instances
 from ..kernels.layout import SPHERE
 from ..kernels.threads import run_blocks
-from ..kernels.winding import node_moments, winding_numbers_instances
+from ..kernels.winding import lane_moments, winding_numbers_instances
 from .bvh import Shape, TwoLevelBVH
 
-DEFAULT_BETA = 2.0  # Barill et al.'s accuracy parameter: a node is approximated from beta radii away
+DEFAULT_BETA = 2.0  # Barill et al.'s accuracy parameter: a BVH lane is approximated from beta radii away
+DEFAULT_ORDER = 2   # Taylor order of the far field (1: dipole, 2: dipole and its first correction)
 SIMILARITY_RTOL = 1e-9  # A^T A = s^2 I within this relative tolerance counts as a similarity
 
 
@@ -109,28 +110,33 @@ class DistanceIndex:
     # ---------------------------------------------------------------------------------------- winding numbers
     @property
     def moments(self) -> tuple:
-        """(area vectors, centroids, radii, areas) of every bottom-level node, computed on first use."""
+        """(area vectors, centroids, second moments, radii, areas) of every lane of every bottom-level node
+        (kernels/winding.lane_moments), computed on first use."""
         if self._moments is None:
             bounds, child, leaf_prim, leaf_tri = self.tree.packed.blas[:4]
-            m = len(child)
-            out = (np.zeros((m, 3)), np.zeros((m, 3)), np.zeros(m), np.zeros(m))
+            m = len(child) * 4
+            out = (np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 9)), np.zeros(m), np.zeros(m))
             if m:
-                node_moments(bounds, child, leaf_prim, leaf_tri, *out)
+                lane_moments(bounds, child, leaf_prim, leaf_tri, *out)
             self._moments = out
         return self._moments
 
-    def winding_numbers(self, points: np.ndarray, beta: float = DEFAULT_BETA) -> tuple[np.ndarray, np.ndarray]:
+    def winding_numbers(self, points: np.ndarray, beta: float = DEFAULT_BETA,
+                        order: int = DEFAULT_ORDER) -> tuple[np.ndarray, np.ndarray]:
         """Generalized winding number of each point (N, 3) over all instances and a bound on its error (0 when
         beta is inf: every triangle summed exactly). See kernels/winding.py."""
         if not beta > 1.0:
             raise ValueError(f"beta must be greater than 1, got {beta}")
+        if order not in (1, 2):
+            raise ValueError(f"order must be 1 or 2, got {order}")
         n = len(points)
         p = self.tree.packed
         bounds, child, leaf_prim, leaf_tri, sph_c, sph_r = p.blas[:6]
         w, err = np.empty(n), np.empty(n)
         if n:
             run_blocks(winding_numbers_instances, n, points, p.top[3], p.w2o, self.sign, self.inst_sphere, sph_c,
-                       sph_r, bounds, child, leaf_prim, leaf_tri, *self.moments, float(beta), p.stack, w, err)
+                       sph_r, bounds, child, leaf_prim, leaf_tri, *self.moments, float(beta), int(order), p.stack, w,
+                       err)
         return w, err
 
     @property

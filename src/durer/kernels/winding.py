@@ -5,16 +5,20 @@ signed solid angle of T_i seen from p (Jacobson, Kavan and Sorkine-Hornung 2013)
 Strackee's formula. For a closed, outward-wound (counter-clockwise seen from outside) mesh it is exactly 1 inside
 and 0 outside; on a mesh with holes it varies smoothly and w > 1/2 is the natural inside test.
 
-Evaluated fast with Barill et al. 2018 ("Fast Winding Numbers for Soups and Clouds"): every BVH node stores the
-sum of its triangles' area vectors N, their area-weighted centroid c, a radius rho bounding every triangle point
-from c (the distance from c to the farthest corner of the node's box), and their unsigned area A. A node whose
-centre is farther than beta * rho from p (beta > 1) is replaced by its dipole term N . (c - p) / |c - p|^3; nearer
-nodes are opened, leaves are summed exactly.
+Evaluated fast with Barill et al. 2018 ("Fast Winding Numbers for Soups and Clouds"): every lane of every BVH
+node (a child subtree or a leaf) stores the sum N of its triangles' area vectors A_i, their area-weighted
+centroid c, the second moment M = sum_i (c_i - c) (x) A_i (c_i: triangle centroids), a radius rho bounding every
+triangle point from c (the distance from c to the farthest corner of the lane's box) and the unsigned area A. A
+lane whose centre is farther than beta * rho from p (beta > 1) is replaced by its Taylor expansion: order 1 the
+dipole N . r / |r|^3 (r = c - p), order 2 adds tr(M) / |r|^3 - 3 r . M r / |r|^5 (the linear term, exact since
+the integral of x - c over a triangle is its area times c_i - c). Nearer lanes are opened; leaves summed exactly.
 
-Error bound (derived here for the order-1 dipole): for a triangle point x and the kernel K(x) = n . (x - p) /
-|x - p|^3, |grad K| <= 2 / |x - p|^3, and every x is within rho of c, at least d - rho from p (d = |c - p|), so
-one approximated node is off by at most A * 2 rho / (d - rho)^3 in solid angle, i.e. A rho / (2 pi (d - rho)^3)
-in w. `winding_numbers_instances` returns the sum of these terms for each point, a rigorous bound on
+Error bounds, per approximated lane, for the kernel K(x) = n . (x - p) / |x - p|^3 of a unit normal n: every
+triangle point x is within rho of c and at least d - rho from p (d = |c - p|). Order 1: |grad K| <= 2 / |x - p|^3
+gives |error| <= 2 A rho / (d - rho)^3 in solid angle. Order 2: the Taylor remainder is 1/2 v . H v |x - c|^2 with
+|v . H v| <= 6 / |x - p|^4 for unit v (H = -3 (n y' + y n') - 3 (n . y) I + 15 (n . y) y y' at |y| = 1, whose
+quadratic form is at most 6 = 15 - 6 - 3 in size, reached at n = y = v), so |error| <= 3 A rho^2 / (d - rho)^4.
+Divided by 4 pi for w. `winding_numbers_instances` returns the sum of these terms for each point, a bound on
 |w_fast - w_exact| up to rounding (tests/test_kernels_winding.py checks it).
 """
 
@@ -45,87 +49,116 @@ def solid_angle(leaf_tri, o, px, py, pz):
     return 2.0 * np.arctan2(det, den)
 
 
+@nb.njit(**JIT, inline="always")
+def _add_triangle(leaf_tri, o, acc):
+    """Accumulate one triangle into acc: area vector (0:3), area * centroid (3:6), unsigned area (6), and
+    centroid (x) area vector (7:16), the raw sums the lane moments are made of."""
+    ux, uy, uz = leaf_tri[o + 3] - leaf_tri[o], leaf_tri[o + 4] - leaf_tri[o + 1], leaf_tri[o + 5] - leaf_tri[o + 2]
+    vx, vy, vz = leaf_tri[o + 6] - leaf_tri[o], leaf_tri[o + 7] - leaf_tri[o + 1], leaf_tri[o + 8] - leaf_tri[o + 2]
+    n0, n1, n2 = 0.5 * (uy * vz - uz * vy), 0.5 * (uz * vx - ux * vz), 0.5 * (ux * vy - uy * vx)
+    a = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    c0 = (leaf_tri[o] + leaf_tri[o + 3] + leaf_tri[o + 6]) / 3.0
+    c1 = (leaf_tri[o + 1] + leaf_tri[o + 4] + leaf_tri[o + 7]) / 3.0
+    c2 = (leaf_tri[o + 2] + leaf_tri[o + 5] + leaf_tri[o + 8]) / 3.0
+    acc[0] += n0
+    acc[1] += n1
+    acc[2] += n2
+    acc[3] += a * c0
+    acc[4] += a * c1
+    acc[5] += a * c2
+    acc[6] += a
+    c = (c0, c1, c2)
+    for r in range(3):
+        acc[7 + 3 * r] += c[r] * n0
+        acc[8 + 3 * r] += c[r] * n1
+        acc[9 + 3 * r] += c[r] * n2
+
+
 @nb.njit(**JIT)
-def node_moments(bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_r, mom_a):
-    """Per node: area vector sum mom_n (N, 3), area-weighted centroid mom_c (N, 3), radius mom_r (N,) from the
-    centroid to the farthest corner of the node's box, unsigned area mom_a (N,). Children are numbered after
-    their parents (kernels/bvh_build.collapse_bvh4), so one pass from the last node up fills every node."""
+def lane_moments(bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r, mom_a):
+    """Moments of every lane (node * 4 + lane) of a tree, i.e. of each child subtree or leaf:
+
+    mom_n (L, 3) sum of area vectors A_i; mom_c (L, 3) area-weighted centroid c; mom_m (L, 9) the second-order
+    moment sum_i (c_i - c) (x) A_i (row-major, row = offset); mom_r (L,) distance from c to the farthest corner
+    of the lane's box (every triangle point is within it); mom_a (L,) unsigned area. Children are numbered after
+    their parents (kernels/bvh_build.collapse_bvh4), so one pass from the last node up fills every lane."""
+    acc = np.zeros(16)
     for node in range(child.shape[0] - 1, -1, -1):
-        nx = ny = nz = 0.0
-        sx = sy = sz = 0.0
-        area = 0.0
-        lx = ly = lz = np.inf
-        hx = hy = hz = -np.inf
         base = node * NODE_FLOATS
         for lane in range(WIDTH):
+            out = node * WIDTH + lane
             code = child[node, lane]
-            if code == 0:
-                continue
-            lx, ly, lz = min(lx, bounds[base + LO_X + lane]), min(ly, bounds[base + LO_Y + lane]), \
-                min(lz, bounds[base + LO_Z + lane])
-            hx, hy, hz = max(hx, bounds[base + HI_X + lane]), max(hy, bounds[base + HI_Y + lane]), \
-                max(hz, bounds[base + HI_Z + lane])
+            acc[:] = 0.0
             if code > 0:
-                a = mom_a[code]
-                nx, ny, nz = nx + mom_n[code, 0], ny + mom_n[code, 1], nz + mom_n[code, 2]
-                sx, sy, sz = sx + a * mom_c[code, 0], sy + a * mom_c[code, 1], sz + a * mom_c[code, 2]
-                area += a
-                continue
-            first, end = leaf_range(code)
-            for j in range(first, end):
-                if leaf_prim[j] < 0:
-                    continue
-                o = j * 9
-                ux, uy, uz = leaf_tri[o + 3] - leaf_tri[o], leaf_tri[o + 4] - leaf_tri[o + 1], \
-                    leaf_tri[o + 5] - leaf_tri[o + 2]
-                vx, vy, vz = leaf_tri[o + 6] - leaf_tri[o], leaf_tri[o + 7] - leaf_tri[o + 1], \
-                    leaf_tri[o + 8] - leaf_tri[o + 2]
-                cx, cy, cz = 0.5 * (uy * vz - uz * vy), 0.5 * (uz * vx - ux * vz), 0.5 * (ux * vy - uy * vx)
-                a = np.sqrt(cx * cx + cy * cy + cz * cz)
-                nx, ny, nz = nx + cx, ny + cy, nz + cz
-                sx += a * (leaf_tri[o] + leaf_tri[o + 3] + leaf_tri[o + 6]) / 3.0
-                sy += a * (leaf_tri[o + 1] + leaf_tri[o + 4] + leaf_tri[o + 7]) / 3.0
-                sz += a * (leaf_tri[o + 2] + leaf_tri[o + 5] + leaf_tri[o + 8]) / 3.0
-                area += a
-        if area > 0.0:
-            cx, cy, cz = sx / area, sy / area, sz / area
-        else:
-            cx, cy, cz = 0.5 * (lx + hx), 0.5 * (ly + hy), 0.5 * (lz + hz)
-        if not np.isfinite(cx + cy + cz):  # an empty tree's root: nothing to approximate
-            cx = cy = cz = 0.0
-        mom_n[node, 0], mom_n[node, 1], mom_n[node, 2] = nx, ny, nz
-        mom_c[node, 0], mom_c[node, 1], mom_c[node, 2] = cx, cy, cz
-        mom_a[node] = area
-        ex, ey, ez = max(cx - lx, hx - cx), max(cy - ly, hy - cy), max(cz - lz, hz - cz)
-        r = np.sqrt(ex * ex + ey * ey + ez * ez)
-        mom_r[node] = r if np.isfinite(r) else 0.0
+                for sub in range(WIDTH):  # raw sums from the child's lanes' central moments
+                    q = code * WIDTH + sub
+                    a = mom_a[q]
+                    for r in range(3):
+                        acc[r] += mom_n[q, r]
+                        acc[3 + r] += a * mom_c[q, r]
+                        for col in range(3):
+                            acc[7 + 3 * r + col] += mom_m[q, 3 * r + col] + mom_c[q, r] * mom_n[q, col]
+                    acc[6] += a
+            elif code < 0:
+                first, end = leaf_range(code)
+                for j in range(first, end):
+                    if leaf_prim[j] >= 0:
+                        _add_triangle(leaf_tri, j * 9, acc)
+            lo = (bounds[base + LO_X + lane], bounds[base + LO_Y + lane], bounds[base + LO_Z + lane])
+            hi = (bounds[base + HI_X + lane], bounds[base + HI_Y + lane], bounds[base + HI_Z + lane])
+            area = acc[6]
+            r2 = 0.0
+            for r in range(3):
+                if code == 0:
+                    c = 0.0
+                elif area > 0.0:
+                    c = acc[3 + r] / area
+                else:
+                    c = 0.5 * (lo[r] + hi[r])
+                mom_c[out, r] = c
+                mom_n[out, r] = acc[r]
+                e = max(c - lo[r], hi[r] - c) if code != 0 else 0.0
+                r2 += e * e
+            for r in range(3):
+                for col in range(3):
+                    mom_m[out, 3 * r + col] = acc[7 + 3 * r + col] - mom_c[out, r] * acc[col]
+            mom_a[out] = area
+            mom_r[out] = np.sqrt(r2)
 
 
 @nb.njit(**JIT, inline="always")
-def _far(mom_n, mom_c, mom_r, mom_a, node, beta, px, py, pz):
-    """(dipole solid angle, its error bound) of `node` if p is farther than beta * rho from its centre, else
-    (0, -1) to say it must be opened."""
-    rx, ry, rz = mom_c[node, 0] - px, mom_c[node, 1] - py, mom_c[node, 2] - pz
-    d = np.sqrt(rx * rx + ry * ry + rz * rz)
-    rho = mom_r[node]
+def _far(mom_n, mom_c, mom_m, mom_r, mom_a, lane, beta, order, px, py, pz):
+    """(far-field solid angle, its error bound) of a lane if p is farther than beta * rho from its centre, else
+    (0, -1) to say it must be opened. Order 1: the dipole N . r / |r|^3 (r = c - p); order 2 adds the first
+    Taylor term, tr(M) / |r|^3 - 3 r . M r / |r|^5."""
+    rx, ry, rz = mom_c[lane, 0] - px, mom_c[lane, 1] - py, mom_c[lane, 2] - pz
+    d2 = rx * rx + ry * ry + rz * rz
+    d = np.sqrt(d2)
+    rho = mom_r[lane]
     if d <= beta * rho or d == 0.0:
         return 0.0, -1.0
-    omega = (mom_n[node, 0] * rx + mom_n[node, 1] * ry + mom_n[node, 2] * rz) / (d * d * d)
+    d3 = d2 * d
+    omega = (mom_n[lane, 0] * rx + mom_n[lane, 1] * ry + mom_n[lane, 2] * rz) / d3
     g = d - rho
-    return omega, 2.0 * mom_a[node] * rho / (g * g * g)
+    if order == 1:
+        return omega, 2.0 * mom_a[lane] * rho / (g * g * g)
+    m = mom_m[lane]
+    trace = m[0] + m[4] + m[8]
+    rmr = (rx * (m[0] * rx + m[1] * ry + m[2] * rz) + ry * (m[3] * rx + m[4] * ry + m[5] * rz)
+           + rz * (m[6] * rx + m[7] * ry + m[8] * rz))
+    omega += trace / d3 - 3.0 * rmr / (d3 * d2)
+    return omega, 3.0 * mom_a[lane] * rho * rho / (g * g * g * g)
 
 
 @nb.njit(**JIT)
-def blas_winding(bounds, child, root, leaf_prim, leaf_tri, mom_n, mom_c, mom_r, mom_a, beta, px, py, pz, stack):
+def blas_winding(bounds, child, root, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r, mom_a, beta, order,
+                 px, py, pz, stack):
     """(sum of solid angles of one object-space tree's triangles seen from p, bound on its error), both in
     steradians. beta = inf sums every triangle exactly."""
     omega = 0.0
     err = 0.0
     if child.shape[0] == 0:
         return omega, err
-    f, e = _far(mom_n, mom_c, mom_r, mom_a, root, beta, px, py, pz)
-    if e >= 0.0:
-        return f, e
     stack[0] = root
     sp = 1
     while sp > 0:
@@ -135,26 +168,25 @@ def blas_winding(bounds, child, root, leaf_prim, leaf_tri, mom_n, mom_c, mom_r, 
             code = child[node, lane]
             if code == 0:
                 continue
-            if code > 0:
-                f, e = _far(mom_n, mom_c, mom_r, mom_a, code, beta, px, py, pz)
-                if e >= 0.0:
-                    omega += f
-                    err += e
-                else:
-                    stack[sp] = code
-                    sp += 1
-                continue
-            first, end = leaf_range(code)
-            for j in range(first, end):
-                if leaf_prim[j] >= 0:
-                    omega += solid_angle(leaf_tri, j * 9, px, py, pz)
+            f, e = _far(mom_n, mom_c, mom_m, mom_r, mom_a, node * WIDTH + lane, beta, order, px, py, pz)
+            if e >= 0.0:
+                omega += f
+                err += e
+            elif code > 0:
+                stack[sp] = code
+                sp += 1
+            else:
+                first, end = leaf_range(code)
+                for j in range(first, end):
+                    if leaf_prim[j] >= 0:
+                        omega += solid_angle(leaf_tri, j * 9, px, py, pz)
     return omega, err
 
 
 @nb.njit(**JIT)
 def winding_numbers_instances(points, inst_root, inst_w2o, inst_sign, inst_sphere, sph_center, sph_radius,
-                              bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_r, mom_a, beta, stack_size,
-                              w_out, err_out, blk0, blk1):
+                              bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r, mom_a, beta, order,
+                              stack_size, w_out, err_out, blk0, blk1):
     """Winding number of every point in blocks blk0..blk1 summed over all instances, and its error bound.
 
     Mesh instances: the point moved into object space (instances are similarity transforms here: the solid
@@ -178,8 +210,8 @@ def winding_numbers_instances(points, inst_root, inst_w2o, inst_sign, inst_spher
                 r2 = sph_radius[s] * sph_radius[s]
                 w += 1.0 if d2 < r2 else (0.5 if d2 == r2 else 0.0)
                 continue
-            omega, e = blas_winding(bounds, child, inst_root[k], leaf_prim, leaf_tri, mom_n, mom_c, mom_r, mom_a,
-                                    beta, ox, oy, oz, stack)
+            omega, e = blas_winding(bounds, child, inst_root[k], leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r,
+                                    mom_a, beta, order, ox, oy, oz, stack)
             w += inst_sign[k] * omega / FOUR_PI
             err += e / FOUR_PI
         w_out[i] = w
