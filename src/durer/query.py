@@ -447,3 +447,5 @@ def _open3d_arguments(method):
 
 for _name in ("cast_rays", "test_occlusions", "count_intersections", "list_intersections"):
     setattr(RaycastingScene, _name, _open3d_arguments(getattr(RaycastingScene, _name)))
+
+RaycastingScene.INVALID_ID = INVALID_ID  # Open3D's spelling: the geometry and primitive id of a miss
