@@ -341,12 +341,8 @@ class RaycastingScene:
         nsamples = int(nsamples)
         if nsamples < 1:
             raise ValueError(f"nsamples must be at least 1, got {nsamples}")
-        votes = np.zeros(len(p), np.int64)
-        lo, hi = np.zeros(len(p)), np.full(len(p), np.inf)
-        for d in _PARITY_DIRECTIONS[:nsamples] if nsamples <= len(_PARITY_DIRECTIONS) else _directions(nsamples):
-            counts, _ = self._tree().all_hits(p, np.ascontiguousarray(np.broadcast_to(d, p.shape)), lo, hi, False)
-            votes += counts & 1
-        return votes * 2 > nsamples
+        dirs = _PARITY_DIRECTIONS[:nsamples] if nsamples <= len(_PARITY_DIRECTIONS) else _directions(nsamples)
+        return self._distance_index().crossing_votes(p, dirs) * 2 > nsamples
 
     def compute_signed_distance(self, query_points, nthreads: int | None = None, nsamples: int = 1,
                                 method: str = "winding", beta: float = DEFAULT_BETA,

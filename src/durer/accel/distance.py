@@ -20,9 +20,9 @@ import time
 import numpy as np
 
 from ..kernels.closest import closest_points_instances
-from ..kernels.layout import SPHERE
+from ..kernels.layout import SPHERE, TRIANGLE
 from ..kernels.threads import run_blocks
-from ..kernels.winding import lane_moments, winding_numbers_instances
+from ..kernels.winding import crossing_votes_instances, lane_moments, winding_numbers_instances
 from .bvh import Shape, TwoLevelBVH
 
 DEFAULT_BETA = 2.0  # Barill et al.'s accuracy parameter: a BVH lane is approximated from beta radii away
@@ -101,11 +101,22 @@ class DistanceIndex:
         return d2, inst, kind, prim, q, uv
 
     def normals(self, q: np.ndarray, inst: np.ndarray, kind: np.ndarray, prim: np.ndarray) -> np.ndarray:
-        """Unit world-space normals at closest points q: triangles by their winding, ellipsoids outward."""
+        """Unit world-space normals at closest points q: triangles by their winding (flipped under a mirror, as
+        moved vertices would be), ellipsoids outward (the object-space radius by the inverse transpose). NumPy,
+        no Numba parallel region, so forked processes may call it."""
+        p = self.tree.packed
+        k = np.where(kind != 0, inst, 0)
+        w2o = p.w2o[k][:, :, :3] if len(p.w2o) else np.zeros((len(q), 3, 3))
+        obj = np.zeros((len(q), 3))
+        tri = kind == TRIANGLE
+        obj[tri] = p.normals[p.tri_off[p.inst_shape[k[tri]]] + prim[tri]] * p.inst_sign[k[tri], None]
         sph = kind == SPHERE
-        prim = np.where(sph, self.inst_sphere[np.where(sph, inst, 0)], prim).astype(np.int32)
-        zero = np.zeros(len(q))
-        return self.tree.normals(q, np.zeros_like(q), zero, inst, kind, prim)
+        if sph.any():
+            local = np.einsum("nij,nj->ni", p.w2o[k[sph]][:, :, :3], q[sph]) + p.w2o[k[sph]][:, :, 3]
+            obj[sph] = local - p.blas[4][self.inst_sphere[k[sph]]]
+        n = np.einsum("nji,nj->ni", w2o, obj)  # the inverse transpose of object-to-world is w2o transposed
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
     # ---------------------------------------------------------------------------------------- winding numbers
     @property
@@ -138,6 +149,17 @@ class DistanceIndex:
                        sph_r, bounds, child, leaf_prim, leaf_tri, *self.moments, float(beta), int(order), p.stack, w,
                        err)
         return w, err
+
+    def crossing_votes(self, points: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+        """How many of R rays from each point (N, 3) cross the surfaces an odd number of times: ray r along
+        dirs[r] (R, 3) plus the unit direction away from the middle of the scene (kernels/winding.py)."""
+        p = self.tree.packed
+        votes = np.zeros(len(points), np.int64)
+        if len(points):
+            lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
+            run_blocks(crossing_votes_instances, len(points), points, np.ascontiguousarray(dirs, np.float64),
+                       (lo + hi) / 2, p.top[3], p.w2o, *p.blas[:7], p.stack, votes)
+        return votes
 
     @property
     def moments_nbytes(self) -> int:

@@ -27,6 +27,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from .bvh_single import blas_all
 from .closest import POINTS_PER_BLOCK
 from .layout import HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, WIDTH, leaf_range
 
@@ -216,3 +217,40 @@ def winding_numbers_instances(points, inst_root, inst_w2o, inst_sign, inst_spher
             err += e / FOUR_PI
         w_out[i] = w
         err_out[i] = err
+
+
+@nb.njit(**JIT)
+def crossing_votes_instances(points, dirs, center, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
+                             sph_center, sph_radius, sph_w2o, stack_size, votes, blk0, blk1):
+    """Open3D's inside test, for comparison: votes[i] = how many of R rays from point i cross the surfaces an odd
+    number of times (every instance's tree, the ray moved into its object space). Ray r leaves along
+    dirs[r] + the unit direction from `center` (the scene's middle) to the point: any direction gives the same
+    parity on a closed mesh, and pointing away from the middle crosses fewer boxes. Serial and nogil, spread by
+    run_blocks (no Numba parallel region: safe in forked processes)."""
+    n = points.shape[0]
+    stack = np.empty(max(stack_size, 1) * 4, np.int32)
+    dist = np.empty(WIDTH)
+    e_t, e_u, e_v = np.empty(0), np.empty(0), np.empty(0)
+    e_p, e_k = np.empty(0, np.int32), np.empty(0, np.int8)
+    for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        ax, ay, az = px - center[0], py - center[1], pz - center[2]
+        norm = np.sqrt(ax * ax + ay * ay + az * az)
+        if norm > 0.0:
+            ax, ay, az = ax / norm, ay / norm, az / norm
+        v = 0
+        for r in range(dirs.shape[0]):
+            count = 0
+            rx, ry, rz = dirs[r, 0] + ax, dirs[r, 1] + ay, dirs[r, 2] + az
+            for k in range(inst_root.shape[0]):
+                m = inst_w2o[k]
+                ox = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+                oy = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+                oz = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+                dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
+                dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
+                dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
+                count = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                 ox, oy, oz, dx, dy, dz, 0.0, np.inf, stack, dist, e_t, e_p, e_k, e_u, e_v, count)
+            v += count & 1
+        votes[i] = v
