@@ -8,7 +8,8 @@ and 0 outside; on a mesh with holes it varies smoothly and w > 1/2 is the natura
 Evaluated fast with Barill et al. 2018 ("Fast Winding Numbers for Soups and Clouds"): every lane of every BVH
 node (a child subtree or a leaf) stores the sum N of its triangles' area vectors A_i, their area-weighted
 centroid c, the second moment M = sum_i (c_i - c) (x) A_i (c_i: triangle centroids), a radius rho bounding every
-triangle point from c (the distance from c to the farthest corner of the lane's box) and the unsigned area A. A
+triangle point from c (a leaf's farthest vertex; above, the smaller of the farthest box corner and the
+children's spheres) and the unsigned area A. A
 lane whose centre is farther than beta * rho from p (beta > 1) is replaced by its Taylor expansion: order 1 the
 dipole N . r / |r|^3 (r = c - p), order 2 adds tr(M) / |r|^3 - 3 r . M r / |r|^5 (the linear term, exact since
 the integral of x - c over a triangle is its area times c_i - c). Nearer lanes are opened; leaves summed exactly.
@@ -80,8 +81,9 @@ def lane_moments(bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r,
     """Moments of every lane (node * 4 + lane) of a tree, i.e. of each child subtree or leaf:
 
     mom_n (L, 3) sum of area vectors A_i; mom_c (L, 3) area-weighted centroid c; mom_m (L, 9) the second-order
-    moment sum_i (c_i - c) (x) A_i (row-major, row = offset); mom_r (L,) distance from c to the farthest corner
-    of the lane's box (every triangle point is within it); mom_a (L,) unsigned area. Children are numbered after
+    moment sum_i (c_i - c) (x) A_i (row-major, row = offset); mom_r (L,) a radius around c holding every
+    triangle point: a leaf's farthest vertex, else the smaller of the farthest box corner and the sub-lanes'
+    spheres (|c_sub - c| + rho_sub); mom_a (L,) unsigned area. Children are numbered after
     their parents (kernels/bvh_build.collapse_bvh4), so one pass from the last node up fills every lane."""
     acc = np.zeros(16)
     for node in range(child.shape[0] - 1, -1, -1):
@@ -124,7 +126,25 @@ def lane_moments(bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r,
                 for col in range(3):
                     mom_m[out, 3 * r + col] = acc[7 + 3 * r + col] - mom_c[out, r] * acc[col]
             mom_a[out] = area
-            mom_r[out] = np.sqrt(r2)
+            # the radius: the box's corners bound it; so do the sub-lanes' spheres, or a leaf's vertices exactly
+            cx, cy, cz = mom_c[out, 0], mom_c[out, 1], mom_c[out, 2]
+            tight = 0.0
+            if code > 0:
+                for sub in range(WIDTH):
+                    q = code * WIDTH + sub
+                    if child[code, sub] != 0:
+                        dx, dy, dz = mom_c[q, 0] - cx, mom_c[q, 1] - cy, mom_c[q, 2] - cz
+                        tight = max(tight, np.sqrt(dx * dx + dy * dy + dz * dz) + mom_r[q])
+            elif code < 0:
+                first, end = leaf_range(code)
+                for j in range(first, end):
+                    if leaf_prim[j] >= 0:
+                        for v in range(3):
+                            o = j * 9 + 3 * v
+                            dx, dy, dz = leaf_tri[o] - cx, leaf_tri[o + 1] - cy, leaf_tri[o + 2] - cz
+                            tight = max(tight, dx * dx + dy * dy + dz * dz)
+                tight = np.sqrt(tight)
+            mom_r[out] = min(np.sqrt(r2), tight)
 
 
 @nb.njit(**JIT, inline="always")
