@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH
-from .accel.distance import DEFAULT_BETA, DEFAULT_ORDER, DistanceIndex
+from .accel.distance import DEFAULT_BETA, DEFAULT_ORDER, SIGN_BETA, DistanceIndex
 from .kernels.bvh_trace import image_width
 from .kernels.layout import SPHERE
 from .kernels.rays import first_problem, n_chunks, split_checked_rays
@@ -345,16 +345,18 @@ class RaycastingScene:
         return self._distance_index().crossing_votes(p, dirs) * 2 > nsamples
 
     def compute_signed_distance(self, query_points, nthreads: int | None = None, nsamples: int = 1,
-                                method: str = "winding", beta: float = DEFAULT_BETA,
+                                method: str = "winding", beta: float = SIGN_BETA,
                                 keep_float32: bool = False) -> np.ndarray:
         """Distance to the nearest surface, negative inside (Open3D's sign). Inside is decided by
 
-        * method="winding" (default): |generalized winding number| > 1/2. Right for closed meshes (up to the
-          far-field bound, see compute_winding_number) and degrades gracefully on meshes with holes or
-          self-intersections, such as scans: use it for training data and anything that must not flip signs.
-        * method="parity": Open3D's rule, the parity of the crossings along a ray in a fixed direction, a
-          majority vote of `nsamples` directions. Faster; right for closed, non-self-intersecting meshes, but a
-          ray through a hole or grazing an edge flips the sign.
+        * method="winding" (default): |generalized winding number| > 1/2, evaluated with far field `beta`
+          (compute_winding_number; 1.5 here: a sign needs less accuracy than a value). Right for closed meshes
+          and degrades gracefully on meshes with holes or self-intersections, such as scans: use it for training
+          data and anything that must not flip signs.
+        * method="parity": Open3D's rule, the parity of one ray's crossings (a majority vote of `nsamples`
+          rays; each leaves the point away from the scene's middle, tilted by a fixed direction per sample).
+          Several times faster than the winding number; right for closed, non-self-intersecting meshes, but a
+          ray through a hole flips the sign, and a ray exactly through an edge counts both triangles.
         """
         p, lead, f32 = self._points(query_points)
         with _threads(nthreads):
@@ -364,7 +366,7 @@ class RaycastingScene:
         return d.astype(np.float32 if keep_float32 and f32 else np.float64, copy=False).reshape(lead)
 
     def compute_occupancy(self, query_points, nthreads: int | None = None, nsamples: int = 1,
-                          method: str = "winding", beta: float = DEFAULT_BETA,
+                          method: str = "winding", beta: float = SIGN_BETA,
                           keep_float32: bool = False) -> np.ndarray:
         """1.0 inside, 0.0 outside for each query point (Open3D returns float too); method and nsamples as in
         compute_signed_distance."""

@@ -154,10 +154,10 @@ def _far(mom_n, mom_c, mom_m, mom_r, mom_a, lane, beta, order, px, py, pz):
     Taylor term, tr(M) / |r|^3 - 3 r . M r / |r|^5."""
     rx, ry, rz = mom_c[lane, 0] - px, mom_c[lane, 1] - py, mom_c[lane, 2] - pz
     d2 = rx * rx + ry * ry + rz * rz
-    d = np.sqrt(d2)
     rho = mom_r[lane]
-    if d <= beta * rho or d == 0.0:
+    if d2 <= beta * beta * rho * rho or d2 == 0.0:  # squared: no square root for the lanes that are opened
         return 0.0, -1.0
+    d = np.sqrt(d2)
     d3 = d2 * d
     omega = (mom_n[lane, 0] * rx + mom_n[lane, 1] * ry + mom_n[lane, 2] * rz) / d3
     g = d - rho
