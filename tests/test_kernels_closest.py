@@ -4,7 +4,7 @@ NumPy references, including points exactly on vertices, edges and faces."""
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from durer.kernels.closest import closest_on_ellipsoid, closest_on_triangle
@@ -87,6 +87,8 @@ def test_degenerate_triangles_fall_back_to_edges():
 
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.floats(0.2, 5.0), min_size=3, max_size=3), st.tuples(st.floats(0, 8), st.floats(0, 8), st.floats(0, 8)))
+@example([1.0, 2.0, 2.0], (0.0, 1.0, 5e-324))   # a coordinate below the root's resolution (found by hypothesis)
+@example([1.0, 2.0, 3.0], (0.5, 1e-300, 1e-300))
 def test_ellipsoid_point_is_on_the_surface_and_optimal(axes, y):
     e = np.sort(np.array(axes))[::-1]
     y = np.array(y)

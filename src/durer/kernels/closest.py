@@ -225,7 +225,10 @@ def _ellipse(e0, e1, y0, y1):
                 return y0, y1
             r0 = (e0 / e1) ** 2
             s = _ellipse_root(r0, z0, z1, g)
-            return r0 * y0 / (s + r0), y1 / (s + 1.0)
+            x0, x1 = r0 * y0 / (s + r0), y1 / (s + 1.0)
+            if not (np.isfinite(x1) and x1 <= e1):  # y1 below the root's resolution: x1 from the ellipse itself
+                x1 = e1 * np.sqrt(max(1.0 - (x0 / e0) ** 2, 0.0))
+            return x0, x1
         return 0.0, e1
     denom0 = e0 * e0 - e1 * e1
     numer0 = e0 * y0
@@ -268,13 +271,24 @@ def closest_on_ellipsoid(e0, e1, e2, y0, y1, y2):
                     return y0, y1, y2
                 r0, r1 = (e0 / e2) ** 2, (e1 / e2) ** 2
                 s = _ellipsoid_root(r0, r1, z0, z1, z2, g)
-                return r0 * y0 / (s + r0), r1 * y1 / (s + r1), y2 / (s + 1.0)
+                x0, x1, x2 = r0 * y0 / (s + r0), r1 * y1 / (s + r1), y2 / (s + 1.0)
+                if np.isfinite(x0 + x1) and x0 <= e0 and x1 <= e1:
+                    if not (np.isfinite(x2) and x2 <= e2):  # y2 below the root's resolution
+                        x2 = e2 * np.sqrt(max(1.0 - (x0 / e0) ** 2 - (x1 / e1) ** 2, 0.0))
+                    return x0, x1, x2
+                return _ellipsoid_flat(e0, e1, e2, y0, y1)  # y1 (and y2) below resolution: as if y2 = 0
             x1, x2 = _ellipse(e1, e2, y1, y2)
             return 0.0, x1, x2
         if y0 > 0.0:
             x0, x2 = _ellipse(e0, e2, y0, y2)
             return x0, 0.0, x2
         return 0.0, 0.0, e2
+    return _ellipsoid_flat(e0, e1, e2, y0, y1)
+
+
+@nb.njit(**JIT)
+def _ellipsoid_flat(e0, e1, e2, y0, y1):
+    """Eberly's case y2 = 0: the closest point may leave the plane (when y is deep enough inside)."""
     denom0, denom1 = e0 * e0 - e2 * e2, e1 * e1 - e2 * e2
     numer0, numer1 = e0 * y0, e1 * y1
     if numer0 < denom0 and numer1 < denom1:
