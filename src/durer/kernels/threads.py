@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numba as nb
@@ -9,6 +10,8 @@ import numba as nb
 from .layout import BLOCK, PACKET
 
 _POOLS: dict[int, ThreadPoolExecutor] = {}
+# a forked child inherits the pools but not their threads: it must make its own (multiprocessing "fork" workers)
+os.register_at_fork(after_in_child=_POOLS.clear)
 
 
 def thread_pool(threads: int) -> ThreadPoolExecutor:
