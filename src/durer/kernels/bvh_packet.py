@@ -35,6 +35,7 @@ from .layout import (
     WIDTH,
     leaf_range,
 )
+from .small_sort import insert_ascending
 
 # Scratch rows of `rr` (float64, (_NROW, PACKET)):
 (_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
@@ -235,14 +236,7 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
             tn, tf = max(tn, a), min(tf, e)
             if not tn <= tf + abs(tf) * FAR_WIDEN:
                 continue
-            j = n_in
-            while j > 0 and key[j - 1] > tn:   # insertion sort, nearest first
-                key[j] = key[j - 1]
-                order[j] = order[j - 1]
-                j -= 1
-            key[j] = tn
-            order[j] = lane
-            n_in += 1
+            n_in = insert_ascending(key, order, n_in, tn, lane)  # nearest first
         # leaves now (nearest first), inner children onto the stack farthest first
         for q in range(n_in):
             lane = order[q]

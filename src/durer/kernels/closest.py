@@ -24,20 +24,16 @@ import numpy as np
 
 from .layout import (
     BLOCK,
-    HI_X,
-    HI_Y,
-    HI_Z,
     JIT,
-    LO_X,
-    LO_Y,
-    LO_Z,
     NODE_FLOATS,
     PACKET,
     SPHERE,
     TRIANGLE,
     WIDTH,
+    lane_box,
     leaf_range,
 )
+from .small_sort import insert_ascending
 
 POINTS_PER_BLOCK = PACKET * BLOCK  # points per work item of run_blocks
 
@@ -71,39 +67,42 @@ def _degenerate(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     return v, w
 
 
+@nb.njit(**JIT, inline="always")
+def _edge_dots(abx, aby, abz, acx, acy, acz, rx, ry, rz):
+    """(ab . r, ac . r): where r, from a vertex to the point, falls along the triangle's two edges from a."""
+    return abx * rx + aby * ry + abz * rz, acx * rx + acy * ry + acz * rz
+
+
+@nb.njit(**JIT, inline="always")
+def _corner_or_edge(q_own, q_other, a_own, a_other):
+    """Ericson's test of corner q (b or c) and of edge aq, from the dot products of the edge vectors with q -> p
+    (q_own along aq, q_other along the other edge) and with a -> p (a_own, a_other): (q's barycentric weight,
+    whether p's region was found, the face test's barycentric numerator of the third vertex)."""
+    if q_own >= 0.0 and q_other <= q_own:                        # vertex region q
+        return 1.0, True, 0.0
+    area = a_own * q_other - q_own * a_other
+    if area <= 0.0 and a_own >= 0.0 and q_own <= 0.0 and a_own - q_own > 0.0:   # edge region aq
+        return a_own / (a_own - q_own), True, area
+    return 0.0, False, area
+
+
 @nb.njit(**JIT)
 def closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """Closest point of triangle abc to p by Ericson's Voronoi-region test: (qx, qy, qz, v, w), with v and w the
     barycentric weights of b and c (q = a + v (b - a) + w (c - a))."""
     abx, aby, abz = bx - ax, by - ay, bz - az
     acx, acy, acz = cx - ax, cy - ay, cz - az
-    apx, apy, apz = px - ax, py - ay, pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
+    d1, d2 = _edge_dots(abx, aby, abz, acx, acy, acz, px - ax, py - ay, pz - az)
     v = w = 0.0
     done = False
     if d1 <= 0.0 and d2 <= 0.0:                      # vertex region a
         done = True
     if not done:
-        bpx, bpy, bpz = px - bx, py - by, pz - bz
-        d3 = abx * bpx + aby * bpy + abz * bpz
-        d4 = acx * bpx + acy * bpy + acz * bpz
-        if d3 >= 0.0 and d4 <= d3:                   # vertex region b
-            v, done = 1.0, True
+        d3, d4 = _edge_dots(abx, aby, abz, acx, acy, acz, px - bx, py - by, pz - bz)
+        v, done, vc = _corner_or_edge(d3, d4, d1, d2)            # vertex region b, edge region ab
         if not done:
-            vc = d1 * d4 - d3 * d2
-            if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0 and d1 - d3 > 0.0:   # edge region ab
-                v, done = d1 / (d1 - d3), True
-        if not done:
-            cpx, cpy, cpz = px - cx, py - cy, pz - cz
-            d5 = abx * cpx + aby * cpy + abz * cpz
-            d6 = acx * cpx + acy * cpy + acz * cpz
-            if d6 >= 0.0 and d5 <= d6:               # vertex region c
-                w, done = 1.0, True
-            if not done:
-                vb = d5 * d2 - d1 * d6
-                if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0 and d2 - d6 > 0.0:   # edge region ac
-                    w, done = d2 / (d2 - d6), True
+            d5, d6 = _edge_dots(abx, aby, abz, acx, acy, acz, px - cx, py - cy, pz - cz)
+            w, done, vb = _corner_or_edge(d6, d5, d2, d1)        # vertex region c, edge region ac
             if not done:
                 va = d3 * d6 - d5 * d4
                 e43, e56 = d4 - d3, d5 - d6
@@ -122,9 +121,10 @@ def closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
 @nb.njit(**JIT, inline="always")
 def _box_dist2(bounds, base, px, py, pz):
     """Squared distance from p to the box at flat offset `base` (inf for an empty lane's box at infinity)."""
-    dx = max(bounds[base + LO_X] - px, 0.0, px - bounds[base + HI_X])
-    dy = max(bounds[base + LO_Y] - py, 0.0, py - bounds[base + HI_Y])
-    dz = max(bounds[base + LO_Z] - pz, 0.0, pz - bounds[base + HI_Z])
+    lx, ly, lz, hx, hy, hz = lane_box(bounds, base)
+    dx = max(lx - px, 0.0, px - hx)
+    dy = max(ly - py, 0.0, py - hy)
+    dz = max(lz - pz, 0.0, pz - hz)
     return dx * dx + dy * dy + dz * dz
 
 
@@ -134,25 +134,31 @@ def _push_children(bounds, child, node, px, py, pz, best2, stack_node, stack_d, 
     is popped next (d, c: the caller's scratch of 4). Returns the new stack pointer."""
     base = node * NODE_FLOATS
     m = 0
-    for lane in range(WIDTH):
-        code = child[node, lane]
-        if code == 0:
-            continue
+    for lane in range(WIDTH):  # an empty lane's box sits at infinity: its distance is never below best2
         dd = _box_dist2(bounds, base + lane, px, py, pz)
-        if dd < best2:
-            k = m                                     # insertion sort, descending distance
-            while k > 0 and d[k - 1] < dd:
-                d[k] = d[k - 1]
-                c[k] = c[k - 1]
-                k -= 1
-            d[k] = dd
-            c[k] = code
-            m += 1
+        if dd < best2:  # by descending distance (ascending -dd), so the nearest child is pushed last
+            m = insert_ascending(d, c, m, -dd, child[node, lane])
     for k in range(m):
         stack_node[sp] = c[k]
-        stack_d[sp] = d[k]
+        stack_d[sp] = -d[k]
         sp += 1
     return sp
+
+
+@nb.njit(**JIT, inline="always")
+def _next_leaf(bounds, child, stack_node, stack_d, sp, px, py, pz, best2, d4, c4):
+    """The nearest-first walk of closest-point queries (one or two levels): pop nodes, skipping those farther than
+    sqrt(best2), pushing the children of inner ones, until a leaf comes up. Returns (leaf code, or 0 when the stack
+    is empty, stack pointer); the caller pushes the root first with distance 0."""
+    while sp > 0:
+        sp -= 1
+        if stack_d[sp] >= best2:
+            continue
+        node = stack_node[sp]
+        if node < 0:
+            return node, sp
+        sp = _push_children(bounds, child, node, px, py, pz, best2, stack_node, stack_d, sp, d4, c4)
+    return 0, sp
 
 
 @nb.njit(**JIT)
@@ -164,15 +170,11 @@ def blas_closest_point(bounds, child, root, leaf_prim, leaf_tri, px, py, pz, bes
     stack_node[0] = root
     stack_d[0] = 0.0
     sp = 1
-    while sp > 0:
-        sp -= 1
-        if stack_d[sp] >= best2:
-            continue
-        node = stack_node[sp]
-        if node >= 0:
-            sp = _push_children(bounds, child, node, px, py, pz, best2, stack_node, stack_d, sp, d4, c4)
-            continue
-        first, end = leaf_range(node)
+    while True:
+        leaf, sp = _next_leaf(bounds, child, stack_node, stack_d, sp, px, py, pz, best2, d4, c4)
+        if leaf == 0:
+            break
+        first, end = leaf_range(leaf)
         for j in range(first, end):
             p = leaf_prim[j]
             if p < 0:
@@ -198,22 +200,8 @@ def _robust_length(a, b, c):
 
 @nb.njit(**JIT)
 def _ellipse_root(r0, z0, z1, g):
-    n0 = r0 * z0
-    s0 = z1 - 1.0
-    s1 = 0.0 if g < 0.0 else _robust_length(n0, z1, 0.0) - 1.0
-    s = 0.0
-    for _ in range(2000):
-        s = 0.5 * (s0 + s1)
-        if s == s0 or s == s1:
-            break
-        g = (n0 / (s + r0)) ** 2 + (z1 / (s + 1.0)) ** 2 - 1.0
-        if g > 0.0:
-            s0 = s
-        elif g < 0.0:
-            s1 = s
-        else:
-            break
-    return s
+    """Eberly's 2D root: the 3D one with a zero middle coordinate (its term is exactly 0, so the same bisection)."""
+    return _ellipsoid_root(r0, 1.0, z0, 0.0, z1, g)
 
 
 @nb.njit(**JIT)
@@ -359,15 +347,10 @@ def closest_points_instances(points, top_bounds, top_child, top_leaf, inst_root,
         top_node[0] = 0
         top_d[0] = 0.0
         sp = 1 if top_child.shape[0] > 0 else 0
-        while sp > 0:
-            sp -= 1
-            if top_d[sp] >= best2:
-                continue
-            node = top_node[sp]
-            if node >= 0:
-                sp = _push_children(top_bounds, top_child, node, px, py, pz, best2, top_node, top_d, sp, d4, c4)
-                continue
-            first, end = leaf_range(node)
+        leaf = -1
+        while leaf != 0:  # 0: the walk is over
+            leaf, sp = _next_leaf(top_bounds, top_child, top_node, top_d, sp, px, py, pz, best2, d4, c4)
+            first, end = leaf_range(leaf) if leaf != 0 else (0, 0)
             for j in range(first, end):
                 k = top_leaf[j]
                 e = inst_ell[k]

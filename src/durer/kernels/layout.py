@@ -72,6 +72,13 @@ def packet_spread_limit(bounds, child):
 
 
 @nb.njit(**JIT, inline="always")
+def lane_box(bounds, base):
+    """The box of the lane at flat offset `base` (node * NODE_FLOATS + lane): lo x, y, z, hi x, y, z."""
+    return (bounds[base + LO_X], bounds[base + LO_Y], bounds[base + LO_Z],
+            bounds[base + HI_X], bounds[base + HI_Y], bounds[base + HI_Z])
+
+
+@nb.njit(**JIT, inline="always")
 def leaf_range(code):
     """The slots start..end of the leaf that child code `code` (< 0) names."""
     v = -code - 1
