@@ -92,6 +92,7 @@ def test_degenerate_triangles_fall_back_to_edges():
 @example([1.0, 2.0, 2.0], (0.0, 1.0, 1e-15))   # deep inside, next to a plane: the root's s + 1 cancels
 @example([1.0, 1.0, 1.0], (0.0, 2.8e-232, 2.8e-232))  # a sphere, the point next to its centre
 @example([2.0, 1.0, 1.0], (0.5, 1e-12, 1e-12))  # a spheroid, the point near its axis, well inside
+@example([1.0, 0.2, 0.2], (0.0, 2.2250738585e-313, 2.2250738585e-313))  # subnormal coordinates on a circle
 def test_ellipsoid_point_is_on_the_surface_and_optimal(axes, y):
     e = np.sort(np.array(axes))[::-1]
     y = np.array(y)

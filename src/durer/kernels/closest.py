@@ -210,8 +210,10 @@ def _ellipse(e0, e1, y0, y1):
     if y1 > 0.0:
         if y0 > 0.0:
             if e0 == e1:  # a circle: straight out from the centre (the root below would cancel in both coordinates)
-                n = np.hypot(y0, y1)
-                return e0 * y0 / n, e0 * y1 / n
+                m = max(y0, y1)  # scaled first, so subnormal coordinates keep their digits
+                a, b = y0 / m, y1 / m
+                n = np.hypot(a, b)
+                return e0 * (a / n), e0 * (b / n)
             z0, z1 = y0 / e0, y1 / e1
             g = z0 * z0 + z1 * z1 - 1.0
             if g == 0.0:
@@ -261,8 +263,10 @@ def closest_on_ellipsoid(e0, e1, e2, y0, y1, y2):
         if y1 > 0.0:
             if y0 > 0.0:
                 if e0 == e2:  # a sphere: straight out from the centre
-                    n = _robust_length(y0, y1, y2)
-                    return e0 * y0 / n, e0 * y1 / n, e0 * y2 / n
+                    m = max(y0, y1, y2)  # scaled first, so subnormal coordinates keep their digits
+                    a, b, c = y0 / m, y1 / m, y2 / m
+                    n = _robust_length(a, b, c)
+                    return e0 * (a / n), e0 * (b / n), e0 * (c / n)
                 z0, z1, z2 = y0 / e0, y1 / e1, y2 / e2
                 g = z0 * z0 + z1 * z1 + z2 * z2 - 1.0
                 if g == 0.0:
@@ -274,8 +278,10 @@ def closest_on_ellipsoid(e0, e1, e2, y0, y1, y2):
                     # a spheroid about x, the point well inside: x1 and x2 share the cancelling factor 1 / (s + 1),
                     # so the circle they lie on comes from the surface equation, their direction from y1, y2
                     rho = e2 * np.sqrt(max(1.0 - (x0 / e0) ** 2, 0.0))
-                    n = np.hypot(y1, y2)
-                    return x0, rho * y1 / n, rho * y2 / n
+                    m = max(y1, y2)
+                    a, b = y1 / m, y2 / m
+                    n = np.hypot(a, b)
+                    return x0, rho * (a / n), rho * (b / n)
                 if np.isfinite(x0 + x1) and x0 <= e0 and x1 <= e1:
                     if not (np.isfinite(x2) and x2 <= e2) or s + 1.0 < ROOT_CANCEL:  # y2 below the root's resolution
                         x2 = e2 * np.sqrt(max(1.0 - (x0 / e0) ** 2 - (x1 / e1) ** 2, 0.0))
