@@ -247,3 +247,17 @@ def test_total_internal_reflection_is_marked_and_has_no_refracted_ray():
     assert [c["kind"] for c in ray["children"]] == ["reflection"]
     np.testing.assert_allclose(tree.color, durer.render(scene, 1, 1, **options).color[0, 0], atol=1e-6)
     assert "total internal reflection: no refracted ray" in tree.text()
+
+
+def test_a_camera_less_model_is_explained_through_the_camera_render_frames_for_the_image(tmp_path):
+    """A model without a camera gets one framed for the image's shape (scene/cameras.image_camera): explain traces
+    that same camera, so its sum is the rendered pixel for a wide image too."""
+    import trimesh
+
+    trimesh.creation.icosphere(subdivisions=2).export(tmp_path / "ball.ply")
+    scene = durer.load(tmp_path / "ball.ply")
+    image = durer.render(scene, 24, 12, shadows=True).color
+    for x, y in ((12, 6), (5, 3), (20, 9)):
+        tree = explain(scene, 24, 12, x, y, shadows=True)
+        np.testing.assert_allclose(tree.color, image[y, x], atol=2e-6)
+    assert image[6, 12].max() > 0.05  # the ball is in the middle of the wide image

@@ -27,6 +27,7 @@ import numpy as np
 from ..accel.hits import Hits
 from ..kernels.layout import PLANE, SPHERE, TRIANGLE
 from ..options import RenderOptions
+from ..scene.cameras import image_camera
 from ..scene.graph import Scene
 from . import film
 from .raycaster import RenderContext, raycast, surface
@@ -271,7 +272,7 @@ def explain(scene: Scene, width: int, height: int, x: int, y: int, *, options: R
 
 def explain_in(ctx: RenderContext, width: int, height: int, x: int, y: int) -> PixelTree:
     """explain() with a prepared context (the preview server keeps one per scene and options)."""
-    camera = ctx.scene.camera
+    camera = image_camera(ctx.scene.camera, width, height)  # the camera render() traces this image through
     tracer = _Tracer(ctx, choose_integrator(ctx.options))
     points, owners, weights = pixel_samples(width, height, x, y, ctx.options)
     origins, directions, valid = camera.generate_rays(points, width, height)

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..accel.hits import geometric_normals, hit_materials
 from ..kernels.layout import SPHERE, TRIANGLE
+from ..scene.cameras import image_camera
 from . import film
 from .bsdfs import BSDFTable, eval_pdf, sample
 from .emitters import Emitters
@@ -188,7 +189,7 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
     each pixel's first sample."""
     options = ctx.options
     tracer = PathTracer(ctx)
-    camera = ctx.scene.camera
+    camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
     count = width * height
     acc, wsum = np.zeros((count, 3)), np.zeros(count)
     depth, normals = np.full(count, np.inf), np.zeros((count, 3))

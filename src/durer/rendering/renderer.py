@@ -19,7 +19,7 @@ from ..io.images import depth_visualization, encode_srgb, normal_visualization, 
 from ..kernels.layout import TILE
 from ..options import RenderOptions
 from ..scene.bsdfs import BSDF, Surface
-from ..scene.cameras import frame_sphere
+from ..scene.cameras import image_camera
 from ..scene.graph import Scene
 from ..scene.validate import check_scene
 from . import film
@@ -228,9 +228,7 @@ def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True
     start = time.perf_counter() if start is None else start
     scene, options = ctx.scene, ctx.options
     integrate = choose_integrator(options)
-    camera = scene.camera
-    if getattr(camera, "frame", None) is not None:  # a camera framed on a model: frame it for this image's shape
-        camera = frame_sphere(*camera.frame[:2], width, height, up=camera.frame[2])
+    camera = image_camera(scene.camera, width, height)  # a model's framed camera fits this image's shape
     points, pixel = film.sample_points(width, height, options)
     origins, directions, valid = camera.generate_rays(points, width, height)
     n = len(points)

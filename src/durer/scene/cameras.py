@@ -246,3 +246,12 @@ def frame_sphere(center, radius: float, width: int = 1, height: int = 1, up=(0.0
     camera = PerspectiveCamera(center + distance * offset, -offset, u, FRAMING_ANGLE)
     camera.frame = (center, radius, u)
     return camera
+
+
+def image_camera(camera, width: int, height: int):
+    """The camera to trace a width x height image through: a camera framed on a model (frame_sphere's, for a model
+    without a camera of its own) is framed again for this image's shape; any other camera is used as it is."""
+    frame = getattr(camera, "frame", None)
+    if frame is None:
+        return camera
+    return frame_sphere(*frame[:2], width, height, up=frame[2])
