@@ -297,7 +297,7 @@ class TwoLevelBVH:
             run_blocks(closest_hit_bvh, n, one[0], one[1], t_min, t_max, *one[2], width, t, kind, prim, u, v)
             self._instance_ids(kind, prim, inst)
         elif self.instances and n:
-            closest_hit_instances(o, d, t_min, t_max, *self.packed.args, t, inst, kind, prim, u, v)
+            run_blocks(closest_hit_instances, n, o, d, t_min, t_max, *self.packed.args, t, inst, kind, prim, u, v)
         else:
             t[:], inst[:], kind[:], prim[:], u[:], v[:] = np.inf, INVALID_ID, MISS, INVALID_ID, 0.0, 0.0
         return t, inst, kind, prim, u, v
@@ -309,7 +309,7 @@ class TwoLevelBVH:
         if one is not None:
             run_blocks(any_hit_bvh, len(o), one[0], one[1], t_min, t_max, *one[2], width, out)
         elif self.instances and len(o):
-            any_hit_instances(o, d, t_min, t_max, *self.packed.args, out)
+            run_blocks(any_hit_instances, len(o), o, d, t_min, t_max, *self.packed.args, out)
         return out
 
     def all_hits(self, o, d, t_min, t_max, fill: bool):
@@ -323,8 +323,8 @@ class TwoLevelBVH:
             return counts, (empty if fill else None)
         empty_f, empty_i, empty_k = np.zeros(0), np.zeros(0, np.int32), np.zeros(0, np.int8)
         args = self.packed.args
-        all_hits_instances(o, d, t_min, t_max, *args, np.zeros(n, np.int64), empty_f, empty_i, empty_k, empty_i,
-                           empty_f, empty_f, counts)
+        run_blocks(all_hits_instances, n, o, d, t_min, t_max, *args, np.zeros(n, np.int64), empty_f, empty_i,
+                   empty_k, empty_i, empty_f, empty_f, counts)
         if not fill:
             return counts, None
         offsets = np.zeros(n, np.int64)
@@ -333,8 +333,8 @@ class TwoLevelBVH:
         out = dict(t=np.empty(total), inst=np.empty(total, np.int32), kind=np.empty(total, np.int8),
                    prim=np.empty(total, np.int32), u=np.empty(total), v=np.empty(total))
         if total:
-            all_hits_instances(o, d, t_min, t_max, *args, offsets, out["t"], out["inst"], out["kind"], out["prim"],
-                               out["u"], out["v"], counts)
+            run_blocks(all_hits_instances, n, o, d, t_min, t_max, *args, offsets, out["t"], out["inst"], out["kind"],
+                       out["prim"], out["u"], out["v"], counts)
         return counts, out
 
     def normals(self, o, d, t, inst, kind, prim) -> np.ndarray:
