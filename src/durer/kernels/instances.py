@@ -116,12 +116,8 @@ def closest_hit_instances(origins, directions, t_min, t_max,
             node, sp = pop_closer(top_node, top_t, sp, best)
             if node == 0:
                 break
-        t_out[i] = best if b_kind != 0 else np.inf
-        inst_out[i] = b_inst
-        kind_out[i] = b_kind
-        prim_out[i] = b_prim
-        u_out[i] = b_u
-        v_out[i] = b_v
+        t_out[i], inst_out[i], kind_out[i] = (best if b_kind != 0 else np.inf), b_inst, b_kind
+        prim_out[i], u_out[i], v_out[i] = b_prim, b_u, b_v
 
 
 @nb.njit(**JIT)
