@@ -346,7 +346,7 @@ class RaycastingScene:
         """Inside test of points p (N, 3): |winding number| > 1/2 (either winding order), or the majority of
         nsamples rays' crossing parity."""
         if method == "winding":
-            return np.abs(self._distance_index().winding_numbers(p, float(beta))[0]) > 0.5
+            return np.abs(self._distance_index().winding_numbers(p, float(beta), want_err=False)[0]) > 0.5
         if method != "parity":
             raise ValueError(f"method must be 'winding' or 'parity', got {method!r}")
         nsamples = int(nsamples)

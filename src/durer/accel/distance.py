@@ -22,7 +22,13 @@ import numpy as np
 from ..kernels.closest import closest_points_instances
 from ..kernels.layout import SPHERE, TRIANGLE
 from ..kernels.threads import run_blocks
-from ..kernels.winding import crossing_votes_instances, lane_moments, winding_numbers_instances
+from ..kernels.winding import (
+    FAR_FLOATS,
+    crossing_votes_instances,
+    far_field_table,
+    lane_moments,
+    winding_numbers_instances,
+)
 from .bvh import Shape, TwoLevelBVH
 
 DEFAULT_BETA = 2.0  # Barill et al.'s accuracy parameter: a BVH lane is approximated from beta radii away
@@ -123,34 +129,38 @@ class DistanceIndex:
 
     # ---------------------------------------------------------------------------------------- winding numbers
     @property
-    def moments(self) -> tuple:
-        """(area vectors, centroids, second moments, radii, areas) of every lane of every bottom-level node
-        (kernels/winding.lane_moments), computed on first use."""
+    def moments(self) -> np.ndarray:
+        """The far-field table (lanes, FAR_FLOATS) of every lane of every bottom-level node: centre, radius, area
+        vector, area and second moment (kernels/winding.lane_moments packed by far_field_table), computed on
+        first use."""
         if self._moments is None:
             bounds, child, leaf_prim, leaf_tri = self.tree.packed.blas[:4]
             m = len(child) * 4
-            out = (np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 9)), np.zeros(m), np.zeros(m))
+            table = np.zeros((m, FAR_FLOATS))
             if m:
-                lane_moments(bounds, child, leaf_prim, leaf_tri, *out)
-            self._moments = out
+                raw = (np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 9)), np.zeros(m), np.zeros(m))
+                lane_moments(bounds, child, leaf_prim, leaf_tri, *raw)
+                far_field_table(*raw, table)
+            self._moments = table
         return self._moments
 
-    def winding_numbers(self, points: np.ndarray, beta: float = DEFAULT_BETA,
-                        order: int = DEFAULT_ORDER) -> tuple[np.ndarray, np.ndarray]:
+    def winding_numbers(self, points: np.ndarray, beta: float = DEFAULT_BETA, order: int = DEFAULT_ORDER,
+                        want_err: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Generalized winding number of each point (N, 3) over all instances and a bound on its error (0 when
-        beta is inf: every triangle summed exactly). See kernels/winding.py."""
+        beta is inf: every triangle summed exactly; 0 when not want_err, which saves a division per far lane).
+        See kernels/winding.py."""
         if not beta > 1.0:
             raise ValueError(f"beta must be greater than 1, got {beta}")
         if order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, got {order}")
         n = len(points)
         p = self.tree.packed
-        bounds, child, leaf_prim, leaf_tri, sph_c, sph_r = p.blas[:6]
+        _, child, leaf_prim, leaf_tri, sph_c, sph_r = p.blas[:6]
         w, err = np.empty(n), np.empty(n)
         if n:
             run_blocks(winding_numbers_instances, n, points, p.top[3], p.w2o, self.sign, self.inst_sphere, sph_c,
-                       sph_r, bounds, child, leaf_prim, leaf_tri, *self.moments, float(beta), int(order), p.stack, w,
-                       err)
+                       sph_r, child, leaf_prim, leaf_tri, self.moments, float(beta), int(order), bool(want_err),
+                       p.stack, w, err)
         return w, err
 
     def crossing_votes(self, points: np.ndarray, dirs: np.ndarray) -> np.ndarray:
@@ -166,4 +176,4 @@ class DistanceIndex:
 
     @property
     def moments_nbytes(self) -> int:
-        return 0 if self._moments is None else sum(a.nbytes for a in self._moments)
+        return 0 if self._moments is None else self._moments.nbytes

@@ -147,39 +147,67 @@ def lane_moments(bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r,
             mom_r[out] = min(np.sqrt(r2), tight)
 
 
-@nb.njit(**JIT, inline="always")
-def _far(mom_n, mom_c, mom_m, mom_r, mom_a, lane, beta, order, px, py, pz):
-    """(far-field solid angle, its error bound) of a lane if p is farther than beta * rho from its centre, else
-    (0, -1) to say it must be opened. Order 1: the dipole N . r / |r|^3 (r = c - p); order 2 adds the first
-    Taylor term, tr(M) / |r|^3 - 3 r . M r / |r|^5."""
-    rx, ry, rz = mom_c[lane, 0] - px, mom_c[lane, 1] - py, mom_c[lane, 2] - pz
-    d2 = rx * rx + ry * ry + rz * rz
-    rho = mom_r[lane]
-    if d2 <= beta * beta * rho * rho or d2 == 0.0:  # squared: no square root for the lanes that are opened
-        return 0.0, -1.0
-    d = np.sqrt(d2)
-    d3 = d2 * d
-    omega = (mom_n[lane, 0] * rx + mom_n[lane, 1] * ry + mom_n[lane, 2] * rz) / d3
-    g = d - rho
-    if order == 1:
-        return omega, 2.0 * mom_a[lane] * rho / (g * g * g)
-    m = mom_m[lane]
-    trace = m[0] + m[4] + m[8]
-    rmr = (rx * (m[0] * rx + m[1] * ry + m[2] * rz) + ry * (m[3] * rx + m[4] * ry + m[5] * rz)
-           + rz * (m[6] * rx + m[7] * ry + m[8] * rz))
-    omega += trace / d3 - 3.0 * rmr / (d3 * d2)
-    return omega, 3.0 * mom_a[lane] * rho * rho / (g * g * g * g)
+# the far-field table: one 128-byte row per lane, what the decision and the dipole need in its first 64 bytes
+FAR_CX, FAR_CY, FAR_CZ, FAR_RHO, FAR_NX, FAR_NY, FAR_NZ, FAR_AREA = range(8)
+FAR_TRACE, FAR_S00, FAR_S11, FAR_S22, FAR_S01, FAR_S02, FAR_S12 = range(8, 15)  # S01.. are doubled (see below)
+FAR_FLOATS = 16
 
 
 @nb.njit(**JIT)
-def blas_winding(bounds, child, root, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r, mom_a, beta, order,
-                 px, py, pz, stack):
-    """(sum of solid angles of one object-space tree's triangles seen from p, bound on its error), both in
-    steradians. beta = inf sums every triangle exactly."""
+def far_field_table(mom_n, mom_c, mom_m, mom_r, mom_a, table):
+    """Pack lane_moments' arrays into table (L, FAR_FLOATS): centre, radius, area vector, area, tr(M) and the
+    symmetric part of M (the far field only needs r . M r = r . sym(M) r), off-diagonal terms doubled so that
+    r . M r = S00 x^2 + S11 y^2 + S22 z^2 + S01 x y + S02 x z + S12 y z. One contiguous row per lane: a node's
+    four lanes are four rows in a row, where five separate arrays cost five streams of memory."""
+    for q in range(mom_a.shape[0]):
+        m = mom_m[q]
+        row = table[q]
+        row[FAR_CX], row[FAR_CY], row[FAR_CZ] = mom_c[q, 0], mom_c[q, 1], mom_c[q, 2]
+        row[FAR_RHO] = mom_r[q]
+        row[FAR_NX], row[FAR_NY], row[FAR_NZ] = mom_n[q, 0], mom_n[q, 1], mom_n[q, 2]
+        row[FAR_AREA] = mom_a[q]
+        row[FAR_TRACE] = m[0] + m[4] + m[8]
+        row[FAR_S00], row[FAR_S11], row[FAR_S22] = m[0], m[4], m[8]
+        row[FAR_S01], row[FAR_S02], row[FAR_S12] = m[1] + m[3], m[2] + m[6], m[5] + m[7]
+        row[15] = 0.0
+
+
+@nb.njit(**JIT, inline="always")
+def _far(table, lane, beta2, order, want_err, px, py, pz):
+    """(far-field solid angle, its error bound) of a lane if p is farther than beta * rho from its centre
+    (beta2 = beta^2), else (0, -1) to say it must be opened. Order 1: the dipole N . r / |r|^3 (r = c - p);
+    order 2 adds the first Taylor term, tr(M) / |r|^3 - 3 r . M r / |r|^5. The bound (module docstring) costs a
+    division: it is computed only when want_err."""
+    row = table[lane]
+    rx, ry, rz = row[FAR_CX] - px, row[FAR_CY] - py, row[FAR_CZ] - pz
+    d2 = rx * rx + ry * ry + rz * rz
+    rho = row[FAR_RHO]
+    if d2 <= beta2 * rho * rho or d2 == 0.0:  # squared: no square root for the lanes that are opened
+        return 0.0, -1.0
+    inv2 = 1.0 / d2
+    inv3 = inv2 * np.sqrt(inv2)
+    omega = (row[FAR_NX] * rx + row[FAR_NY] * ry + row[FAR_NZ] * rz) * inv3
+    if order == 2:
+        rmr = (row[FAR_S00] * rx * rx + row[FAR_S11] * ry * ry + row[FAR_S22] * rz * rz + row[FAR_S01] * rx * ry
+               + row[FAR_S02] * rx * rz + row[FAR_S12] * ry * rz)
+        omega += (row[FAR_TRACE] - 3.0 * rmr * inv2) * inv3
+    if not want_err:
+        return omega, 0.0
+    g = np.sqrt(d2) - rho
+    if order == 1:
+        return omega, 2.0 * row[FAR_AREA] * rho / (g * g * g)
+    return omega, 3.0 * row[FAR_AREA] * rho * rho / (g * g * g * g)
+
+
+@nb.njit(**JIT)
+def blas_winding(child, root, leaf_prim, leaf_tri, table, beta, order, want_err, px, py, pz, stack):
+    """(sum of solid angles of one object-space tree's triangles seen from p, bound on its error when want_err,
+    else 0), both in steradians. beta = inf sums every triangle exactly."""
     omega = 0.0
     err = 0.0
     if child.shape[0] == 0:
         return omega, err
+    beta2 = beta * beta
     stack[0] = root
     sp = 1
     while sp > 0:
@@ -189,7 +217,7 @@ def blas_winding(bounds, child, root, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, 
             code = child[node, lane]
             if code == 0:
                 continue
-            f, e = _far(mom_n, mom_c, mom_m, mom_r, mom_a, node * WIDTH + lane, beta, order, px, py, pz)
+            f, e = _far(table, node * WIDTH + lane, beta2, order, want_err, px, py, pz)
             if e >= 0.0:
                 omega += f
                 err += e
@@ -206,9 +234,10 @@ def blas_winding(bounds, child, root, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, 
 
 @nb.njit(**JIT)
 def winding_numbers_instances(points, inst_root, inst_w2o, inst_sign, inst_sphere, sph_center, sph_radius,
-                              bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r, mom_a, beta, order,
-                              stack_size, w_out, err_out, blk0, blk1):
-    """Winding number of every point in blocks blk0..blk1 summed over all instances, and its error bound.
+                              child, leaf_prim, leaf_tri, table, beta, order, want_err, stack_size, w_out, err_out,
+                              blk0, blk1):
+    """Winding number of every point in blocks blk0..blk1 summed over all instances, and its error bound (0 unless
+    want_err).
 
     Mesh instances: the point moved into object space (instances are similarity transforms here: the solid
     angle is invariant under rotation, translation and uniform scale, and flips sign under a mirror,
@@ -231,8 +260,8 @@ def winding_numbers_instances(points, inst_root, inst_w2o, inst_sign, inst_spher
                 r2 = sph_radius[s] * sph_radius[s]
                 w += 1.0 if d2 < r2 else (0.5 if d2 == r2 else 0.0)
                 continue
-            omega, e = blas_winding(bounds, child, inst_root[k], leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r,
-                                    mom_a, beta, order, ox, oy, oz, stack)
+            omega, e = blas_winding(child, inst_root[k], leaf_prim, leaf_tri, table, beta, order, want_err, ox, oy,
+                                    oz, stack)
             w += inst_sign[k] * omega / FOUR_PI
             err += e / FOUR_PI
         w_out[i] = w
