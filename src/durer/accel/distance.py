@@ -8,7 +8,9 @@
   world space and given their own tree, once, when the index is built (memory: one more copy of that mesh);
 * every sphere instance is solved in world space as the ellipsoid its transform makes of it (Eberly's bisection,
   exact to float64 rounding; the closed form when the transform keeps it a sphere);
-* per-node moments (area vectors, centroids, radii, areas) of every bottom-level tree for the fast winding number.
+* per-node moments (area vectors, centroids, radii, areas) of every bottom-level tree for the fast winding number;
+* large batches of points are queried in Morton order of a grid over them (`cell_order`), so neighbouring points
+  walk the tree one after another, and the answers are put back in the caller's order.
 
 The kernels are kernels/closest.py and kernels/winding.py; query.py's RaycastingScene builds one lazily.
 """
@@ -21,6 +23,7 @@ import numpy as np
 
 from ..kernels.closest import closest_points_instances
 from ..kernels.layout import SPHERE, TRIANGLE
+from ..kernels.point_order import grid_bits, sort_by_cell
 from ..kernels.threads import run_blocks
 from ..kernels.winding import (
     FAR_FLOATS,
@@ -37,6 +40,7 @@ DEFAULT_ORDER = 2   # Taylor order of the far field (1: dipole, 2: dipole and it
 # its largest error is 0.09 (0.05 with beta 2), and on a closed mesh an error below 1/2 cannot flip a sign
 SIGN_BETA = 1.5
 SIMILARITY_RTOL = 1e-9  # A^T A = s^2 I within this relative tolerance counts as a similarity
+SORT_MIN_POINTS = 4096  # fewer points are queried in the caller's order: sorting them would not pay
 
 
 def similarity_scale(matrix: np.ndarray) -> float | None:
@@ -47,6 +51,30 @@ def similarity_scale(matrix: np.ndarray) -> float | None:
     if s2 <= 0.0 or np.abs(g - s2 * np.eye(3)).max() > SIMILARITY_RTOL * s2:
         return None
     return float(np.sqrt(s2))
+
+
+def cell_order(points: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """(the points in Morton order of a grid over them, the permutation: sorted[j] = points[order[j]]), or (the
+    points, None) for small batches. Queries walk the tree for neighbouring points one after another, which
+    shares the cache (kernels/point_order.py); `restore_order` puts the answers back."""
+    n = len(points)
+    if n < SORT_MIN_POINTS:
+        return points, None
+    sorted_points, order = np.empty_like(points), np.empty(n, np.int64)
+    sort_by_cell(points, grid_bits(n), sorted_points, order)
+    return sorted_points, order
+
+
+def restore_order(order: np.ndarray | None, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The answers for sorted points (cell_order) in the caller's order of the points."""
+    if order is None:
+        return arrays
+    out = []
+    for a in arrays:
+        b = np.empty_like(a)
+        b[order] = a
+        out.append(b)
+    return tuple(out)
 
 
 class DistanceIndex:
@@ -97,6 +125,7 @@ class DistanceIndex:
         """points (N, 3) float64 contiguous -> (squared distance, instance, kind, primitive, closest point (N, 3),
         barycentric weights of vertices 1 and 2 (N, 2)); spheres give primitive 0 and weights 0."""
         n = len(points)
+        points, perm = cell_order(points)
         p = self.tree.packed
         top_bounds, top_child, top_leaf, inst_root, w2o = p.top
         bounds, child, leaf_prim, leaf_tri = p.blas[:4]
@@ -107,7 +136,7 @@ class DistanceIndex:
             run_blocks(closest_points_instances, n, points, top_bounds, top_child, top_leaf, inst_root, w2o,
                        self.o2w, self.scale, self.inst_ell, self.ell_center, self.ell_frame, self.ell_semi, bounds,
                        child, leaf_prim, leaf_tri, p.stack, d2, inst, kind, prim, q, uv)
-        return d2, inst, kind, prim, q, uv
+        return restore_order(perm, d2, inst, kind, prim, q, uv)
 
     def normals(self, q: np.ndarray, inst: np.ndarray, kind: np.ndarray, prim: np.ndarray) -> np.ndarray:
         """Unit world-space normals at closest points q: triangles by their winding (flipped under a mirror, as
@@ -154,6 +183,7 @@ class DistanceIndex:
         if order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, got {order}")
         n = len(points)
+        points, perm = cell_order(points)
         p = self.tree.packed
         _, child, leaf_prim, leaf_tri, sph_c, sph_r = p.blas[:6]
         w, err = np.empty(n), np.empty(n)
@@ -161,18 +191,19 @@ class DistanceIndex:
             run_blocks(winding_numbers_instances, n, points, p.top[3], p.w2o, self.sign, self.inst_sphere, sph_c,
                        sph_r, child, leaf_prim, leaf_tri, self.moments, float(beta), int(order), bool(want_err),
                        p.stack, w, err)
-        return w, err
+        return restore_order(perm, w, err)
 
     def crossing_votes(self, points: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """How many of R rays from each point (N, 3) cross the surfaces an odd number of times: ray r along
         dirs[r] (R, 3) plus the unit direction away from the middle of the scene (kernels/winding.py)."""
+        points, perm = cell_order(points)
         p = self.tree.packed
         votes = np.zeros(len(points), np.int64)
         if len(points):
             lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
             run_blocks(crossing_votes_instances, len(points), points, np.ascontiguousarray(dirs, np.float64),
                        (lo + hi) / 2, p.top[3], p.w2o, *p.blas[:7], p.stack, votes)
-        return votes
+        return restore_order(perm, votes)[0]
 
     @property
     def moments_nbytes(self) -> int:
