@@ -44,34 +44,42 @@ def _owen(x, seed):
     return _rev32(x)
 
 
+@nb.njit(**JIT, inline="always")
+def uniform1(k, dim):
+    """A 53-bit float in [0, 1) from hash(k, dim): dimension `dim` of the stream keyed k."""
+    return np.float64(mix64(k + np.uint64(dim + 1) * _GOLD) >> _S11) * (1.0 / 9007199254740992.0)
+
+
+@nb.njit(**JIT)
+def sobol2(pixel_key, sample, dim):
+    """Owen-scrambled Sobol point (dimensions 0 and 1) of `sample`, shuffled and scrambled by a hash of
+    (pixel_key, dim): pair `dim` of a pixel's stratified samples."""
+    h = mix64(pixel_key ^ (np.uint64(dim + 1) * _PAIR))
+    shuffle = np.uint32(h & _LOW)
+    s1 = np.uint32(h >> _S32)
+    s2 = np.uint32(mix64(h) >> _S32)
+    index = _owen(np.uint32(sample), shuffle)
+    x = _rev32(index)
+    y = np.uint32(0)
+    v = np.uint32(0x80000000)
+    j = index
+    while j:
+        if j & np.uint32(1):
+            y ^= v
+        v ^= v >> np.uint32(1)
+        j >>= np.uint32(1)
+    return np.float64(_owen(x, s1)) * 2.0 ** -32, np.float64(_owen(y, s2)) * 2.0 ** -32
+
+
 @nb.njit(**JIT)
 def uniform_kernel(keys, dim, out):
-    """out[i] = 53-bit float in [0, 1) from hash(keys[i], dim)."""
-    d = np.uint64(dim + 1) * _GOLD
+    """out[i] = uniform1(keys[i], dim)."""
     for i in range(keys.shape[0]):
-        h = mix64(keys[i] + d)
-        out[i] = np.float64(h >> _S11) * (1.0 / 9007199254740992.0)
+        out[i] = uniform1(keys[i], dim)
 
 
 @nb.njit(**JIT)
 def sobol_pair_kernel(pixel_keys, sample, dim, out):
-    """out[i] = Owen-scrambled Sobol point (dimensions 0 and 1) of sample[i], shuffled and scrambled by a hash of
-    (pixel_keys[i], dim)."""
-    d = np.uint64(dim + 1) * _PAIR
+    """out[i] = sobol2(pixel_keys[i], sample[i], dim)."""
     for i in range(pixel_keys.shape[0]):
-        h = mix64(pixel_keys[i] ^ d)
-        shuffle = np.uint32(h & _LOW)
-        s1 = np.uint32(h >> _S32)
-        s2 = np.uint32(mix64(h) >> _S32)
-        index = _owen(np.uint32(sample[i]), shuffle)
-        x = _rev32(index)
-        y = np.uint32(0)
-        v = np.uint32(0x80000000)
-        j = index
-        while j:
-            if j & np.uint32(1):
-                y ^= v
-            v ^= v >> np.uint32(1)
-            j >>= np.uint32(1)
-        out[i, 0] = np.float64(_owen(x, s1)) * 2.0 ** -32
-        out[i, 1] = np.float64(_owen(y, s2)) * 2.0 ** -32
+        out[i, 0], out[i, 1] = sobol2(pixel_keys[i], sample[i], dim)
