@@ -34,18 +34,18 @@ def dim2(depth, k):
 
 
 @nb.njit(**JIT)
-def shade_bounce(rays, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
-                 shadow, shadow_c, shadow_ok, nxt, nxt_thr, nxt_delta, i0, i1):
+def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
+                 shadow, shadow_c, shadow_ok, nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta, i0, i1):
     """Shade paths i0..i1 of a wavefront after its closest-hit query.
 
-    rays (n, 6) origin, direction; hit_* the Hits; ng (n, 3) geometric normals; slot_em the hit's material slot,
+    o, d (n, 3) the rays; hit_* the Hits; ng (n, 3) geometric normals; slot_em the hit's material slot,
     slot the same with solid textures resolved; path = (idx, sample, keys, pixel keys, thr (n,3), eta,
     prev (n, 5): pdf of the last BSDF sample, its delta flag, the point it left from); misses = (radiance (n,3),
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
     radiance, params, triangles, normals, cdf, triangle -> emitter, sphere -> emitter); env = environment-map
     draws (directions, pdfs, weights) per path; scalars = (depth, emit, last, rr_depth).
     Adds found light to L[idx]; writes each path's shadow ray (origin, direction, t_max) with its contribution
-    and validity, and its next ray (origin, direction, pdf, eta) with throughput and delta flag (thr 0: dead)."""
+    and validity, and its next ray (origin, direction, prev as above, throughput (0: the path ended), eta)."""
     idx, sample, keys, pkeys, thr, eta, prev = path
     miss_le, miss_pdf, miss_em = misses
     P, T = bsdf
@@ -55,7 +55,7 @@ def shade_bounce(rays, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
     for i in range(i0, i1):
         shadow_ok[i] = False
         nxt_thr[i, 0] = nxt_thr[i, 1] = nxt_thr[i, 2] = 0.0
-        ox, oy, oz, dx, dy, dz = rays[i, 0], rays[i, 1], rays[i, 2], rays[i, 3], rays[i, 4], rays[i, 5]
+        ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
         t0, t1, t2 = thr[i, 0], thr[i, 1], thr[i, 2]
         hit = hit_kind[i] != MISS
         j = idx[i]
@@ -133,9 +133,9 @@ def shade_bounce(rays, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
         side = wx * gx + wy * gy + wz * gz
         off = scale * (1.0 if side > 0 else (-1.0 if side < 0 else 0.0))
         ln = math.sqrt(wx * wx + wy * wy + wz * wz)
-        nxt[i, 0], nxt[i, 1], nxt[i, 2] = px + off * gx, py + off * gy, pz + off * gz
-        nxt[i, 3], nxt[i, 4], nxt[i, 5] = wx / ln, wy / ln, wz / ln
-        nxt[i, 6], nxt[i, 7] = bpdf, e2
-        nxt[i, 8], nxt[i, 9], nxt[i, 10] = px, py, pz
+        nxt_o[i, 0], nxt_o[i, 1], nxt_o[i, 2] = px + off * gx, py + off * gy, pz + off * gz
+        nxt_d[i, 0], nxt_d[i, 1], nxt_d[i, 2] = wx / ln, wy / ln, wz / ln
+        nxt_prev[i, 0], nxt_prev[i, 1] = bpdf, 1.0 if delta else 0.0
+        nxt_prev[i, 2], nxt_prev[i, 3], nxt_prev[i, 4] = px, py, pz
         nxt_thr[i, 0], nxt_thr[i, 1], nxt_thr[i, 2] = t0, t1, t2
-        nxt_delta[i] = delta
+        nxt_eta[i] = e2

@@ -56,16 +56,17 @@ class PathTracer:
         L = np.zeros((n, 3))
         first_t, first_n = np.full(n, np.inf), np.zeros((n, 3))
         idx = np.arange(n)
-        rays = np.ascontiguousarray(np.column_stack([origins, normalize(directions)]))
+        o, d = np.ascontiguousarray(origins, dtype=np.float64), np.ascontiguousarray(normalize(directions))
         thr, eta = np.ones((n, 3)), np.ones(n)
         prev = np.column_stack([np.ones(n), np.ones(n), origins])  # pdf, delta flag, point of the last bounce
         tmin: float | np.ndarray = t_min
         depth = 0
         while len(idx) and depth < MAX_BOUNCES:
             m = len(idx)
-            hits = ctx.accel.closest_hit(rays[:, :3], rays[:, 3:], t_min=tmin)
+            # camera rays may be traced as image tiles (width 0: the accelerator looks); later rays are not an image
+            hits = ctx.accel.closest_hit(o, d, t_min=tmin, width=0 if depth == 0 else -1)
             hit = hits.hit
-            p = rays[:, :3] + np.where(hit, hits.t, 0.0)[:, None] * rays[:, 3:]
+            p = o + np.where(hit, hits.t, 0.0)[:, None] * d
             ng = geometric_normals(ctx.compiled, hits, p)
             slot_em = hit_materials(ctx.compiled, hits).astype(np.int64)
             if depth == 0:
@@ -78,21 +79,21 @@ class PathTracer:
             if em.envmap is not None and not last:
                 env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
             shadow, shadow_c, shadow_ok = np.empty((m, 7)), np.empty((m, 3)), np.empty(m, bool)
-            nxt, nxt_thr, nxt_delta = np.empty((m, 11)), np.empty((m, 3)), np.zeros(m, bool)
-            run_pieces(shade_bounce, m, rays, hits.t, hits.kind, hits.prim, ng, slot_em, slot,
-                       (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(rays[:, 3:], hit, depth),
+            nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta = (np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 5)),
+                                                        np.empty((m, 3)), np.empty(m))
+            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, slot_em, slot,
+                       (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d, hit, depth),
                        tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth),
-                       L, shadow, shadow_c, shadow_ok, nxt, nxt_thr, nxt_delta)
+                       L, shadow, shadow_c, shadow_ok, nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta)
             if last:
                 break
             q = np.flatnonzero(shadow_ok)
             if len(q):
-                blocked = ctx.accel.any_hit(shadow[q, :3], shadow[q, 3:6], t_min=0.0, t_max=shadow[q, 6])
+                blocked = ctx.accel.any_hit(shadow[q, :3], shadow[q, 3:6], t_min=0.0, t_max=shadow[q, 6], width=-1)
                 L[idx[q]] += shadow_c[q] * ~blocked[:, None]
             alive = np.flatnonzero(max3(nxt_thr) > 0)
-            idx, thr, nxt = idx[alive], nxt_thr[alive], nxt[alive]
-            rays, eta = np.ascontiguousarray(nxt[:, :6]), nxt[:, 7].copy()
-            prev = np.column_stack([nxt[:, 6], nxt_delta[alive], nxt[:, 8:11]])
+            idx, o, d, prev, thr, eta = (idx[alive], nxt_o[alive], nxt_d[alive], nxt_prev[alive], nxt_thr[alive],
+                                         nxt_eta[alive])
             tmin = 0.0
             depth += 1
         return L, first_t, first_n
