@@ -15,8 +15,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ..accel.hits import geometric_normals, hit_materials
 from ..kernels.path_bounce import dim1, dim2, shade_bounce
+from ..kernels.surface import hit_surfaces
 from ..kernels.threads import run_pieces
 from ..scene.cameras import image_camera
 from . import film
@@ -44,6 +44,11 @@ class PathTracer:
         self.max_depth, self.rr_depth, self.hide = o.max_depth, o.rr_depth, o.hide_emitters
         # course scenes show the background colour to camera rays that escape (the environment only lights)
         self.background = None if scene.radiometric_lights else scene.background_color
+        flat = ctx.compiled.flat  # instances flattened: hit_surfaces reads every triangle from one array
+        self._surfaces = tuple(np.ascontiguousarray(a) for a in (
+            flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
+            flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
+            flat.plane_material))
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
         """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
@@ -66,9 +71,8 @@ class PathTracer:
             # camera rays may be traced as image tiles (width 0: the accelerator looks); later rays are not an image
             hits = ctx.accel.closest_hit(o, d, t_min=tmin, width=0 if depth == 0 else -1)
             hit = hits.hit
-            p = o + np.where(hit, hits.t, 0.0)[:, None] * d
-            ng = geometric_normals(ctx.compiled, hits, p)
-            slot_em = hit_materials(ctx.compiled, hits).astype(np.int64)
+            p, ng, slot_em = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, np.int64)
+            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, slot_em)
             if depth == 0:
                 first_t[idx], first_n[idx] = hits.t, ng
             last = 0 <= self.max_depth <= depth + 1
