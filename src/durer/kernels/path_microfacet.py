@@ -92,3 +92,29 @@ def ggx_sample_visible1(wx, wy, wz, u0, u1, au, av):
     mz = max(p1 * t1z + p2 * t2z + p3 * hz, 1e-12)
     ln = math.sqrt(mx * mx + my * my + mz * mz)
     return mx / ln, my / ln, mz / ln
+
+
+@nb.njit(**JIT)
+def rough_albedo_kernel(mu, alpha, eta, transmit, n, out):
+    """out[i]: single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at
+    cos(theta) = mu[i], by the midpoint rule on n x n visible normals: E[F G1(wo)] (or E[(1 - F) G1(wo)] through
+    refraction). The rough plastic's tables."""
+    for i in range(mu.shape[0]):
+        c = mu[i]
+        wx, wz = math.sqrt(1.0 - c * c), c
+        total = 0.0
+        for a in range(n):
+            for b in range(n):
+                mx, my, mz = ggx_sample_visible1(wx, 0.0, wz, (a + 0.5) / n, (b + 0.5) / n, alpha, alpha)
+                c_im = wx * mx + wz * mz
+                f, cos_t, _, eta_ti = fresnel1(c_im, eta)
+                if transmit:
+                    k = eta_ti * c_im + cos_t
+                    ox, oy, oz = k * mx - eta_ti * wx, k * my, k * mz - eta_ti * wz
+                    if oz < 0:
+                        total += (1.0 - f) * ggx_g11(ox, oy, oz, mx, my, mz, alpha, alpha)
+                else:
+                    ox, oy, oz = 2.0 * c_im * mx - wx, 2.0 * c_im * my, 2.0 * c_im * mz - wz
+                    if oz > 0:
+                        total += f * ggx_g11(ox, oy, oz, mx, my, mz, alpha, alpha)
+        out[i] = total / (n * n)

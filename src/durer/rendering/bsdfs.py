@@ -1,4 +1,5 @@
-"""BSDFs for the path tracer: evaluation, importance sampling and pdfs, vectorised over rays in NumPy.
+"""BSDFs for the path tracer: the table of every material slot (packed for kernels/path_bsdf.py, which evaluates and
+samples them), and evaluation, importance sampling and pdfs over arrays of rays through those kernels.
 
 Directions are in the local frame of the (possibly flipped) surface normal, z up, both pointing away from the
 surface: `wi` towards where the path came from, `wo` the new direction. As in Mitsuba 3, eval returns
@@ -54,9 +55,9 @@ from ..kernels.path_bsdf import (
     eval_kernel,
     sample_kernel,
 )
+from ..kernels.path_microfacet import rough_albedo_kernel
 from ..scene.bsdfs import Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughPlastic, Surface, TwoSided
 from ..scene.materials import PhongMaterial
-from .sampling import dot, length, normalize
 
 ROUGH_RES = 64  # cos(theta) samples of the rough plastic's transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 
@@ -165,42 +166,7 @@ def _row(m) -> dict:
     return r
 
 
-# --- Fresnel ------------------------------------------------------------------------------------------------------
-def fresnel(cos_i: np.ndarray, eta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Unpolarised Fresnel reflectance of a dielectric interface with relative index eta (int / ext) for
-    cos(theta_i) of either sign. Returns (F, cos_theta_t signed opposite to cos_i, eta_it, eta_ti)."""
-    eta = np.broadcast_to(np.asarray(eta, dtype=np.float64), np.shape(cos_i))
-    outside = cos_i >= 0
-    eta_it = np.where(outside, eta, 1.0 / eta)
-    eta_ti = 1.0 / eta_it
-    cos_t2 = 1.0 - eta_ti ** 2 * (1.0 - cos_i ** 2)
-    ci = np.abs(cos_i)
-    ct = np.sqrt(np.maximum(cos_t2, 0.0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        a_s = (ci - eta_it * ct) / (ci + eta_it * ct)
-        a_p = (eta_it * ci - ct) / (eta_it * ci + ct)
-    f = 0.5 * (a_s ** 2 + a_p ** 2)
-    f = np.where(eta == 1.0, 0.0, np.where((cos_t2 <= 0) | (ci == 0), 1.0, f))
-    return f, np.where(outside, -ct, ct), eta_it, eta_ti
-
-
-def fresnel_conductor(cos_i: np.ndarray, eta: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """(N,3) Fresnel reflectance of a conductor with complex index eta + i k (N,3) at cos(theta_i) (N,)."""
-    c2 = (cos_i ** 2)[:, None]
-    s2 = 1.0 - c2
-    t1 = eta ** 2 - k ** 2 - s2
-    ab = np.sqrt(t1 ** 2 + 4.0 * k ** 2 * eta ** 2)
-    a = np.sqrt(np.maximum(0.5 * (ab + t1), 0.0))
-    term1 = ab + c2
-    term2 = 2.0 * np.sqrt(c2) * a
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rs = (term1 - term2) / (term1 + term2)
-        term3 = ab * c2 + s2 ** 2
-        term4 = term2 * s2
-        rp = rs * (term3 - term4) / (term3 + term4)
-    return np.nan_to_num(0.5 * (rs + rp), nan=1.0)
-
-
+# --- tables -------------------------------------------------------------------------------------------------------
 def fresnel_diffuse_reflectance(eta: float) -> float:
     """Hemispherical average of the dielectric Fresnel reflectance (fits by Egan-Hilgeman and d'Eon-Irving, as
     in Mitsuba's fresnel_diffuse_reflectance)."""
@@ -210,64 +176,11 @@ def fresnel_diffuse_reflectance(eta: float) -> float:
     return 0.919317 - 3.4793 * i + 6.75335 * i ** 2 - 7.80989 * i ** 3 + 4.98554 * i ** 4 - 1.36881 * i ** 5
 
 
-# --- GGX microfacets ----------------------------------------------------------------------------------------------
-def ggx_d(m: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.ndarray:
-    """GGX normal distribution D(m) (projected-area normalised)."""
-    t = (m[:, 0] / au) ** 2 + (m[:, 1] / av) ** 2 + m[:, 2] ** 2
-    d = 1.0 / (np.pi * au * av * t * t)
-    return np.where(m[:, 2] > 0, d, 0.0)
-
-
-def ggx_g1(v: np.ndarray, m: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.ndarray:
-    """Smith's masking G1(v, m) for GGX; 0 where v sees the back of m."""
-    z2 = np.maximum(v[:, 2] ** 2, 1e-300)
-    lam = 0.5 * (-1.0 + np.sqrt(1.0 + ((au * v[:, 0]) ** 2 + (av * v[:, 1]) ** 2) / z2))
-    g = 1.0 / (1.0 + lam)
-    return np.where(dot(v, m) * v[:, 2] > 0, g, 0.0)
-
-
-def ggx_sample_visible(wi: np.ndarray, u: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.ndarray:
-    """Microfacet normals distributed as D_wi(m) = G1(wi, m) max(0, wi.m) D(m) / cos(theta_i) (Heitz 2018)."""
-    vh = np.column_stack([au * wi[:, 0], av * wi[:, 1], wi[:, 2]])
-    vh /= length(vh)[:, None]
-    lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
-    inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-300)), 0.0)
-    t1 = np.where((lensq > 0)[:, None], np.column_stack([-vh[:, 1] * inv, vh[:, 0] * inv, np.zeros(len(vh))]),
-                  np.array([1.0, 0.0, 0.0]))
-    t2 = np.cross(vh, t1)
-    r = np.sqrt(u[:, 0])
-    phi = 2.0 * np.pi * u[:, 1]
-    p1 = r * np.cos(phi)
-    p2 = r * np.sin(phi)
-    s = 0.5 * (1.0 + vh[:, 2])
-    p2 = (1.0 - s) * np.sqrt(np.maximum(0.0, 1.0 - p1 * p1)) + s * p2
-    nh = p1[:, None] * t1 + p2[:, None] * t2 + np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))[:, None] * vh
-    m = np.column_stack([au * nh[:, 0], av * nh[:, 1], np.maximum(nh[:, 2], 1e-12)])
-    return normalize(m)
-
-
-def _reflect(wi: np.ndarray, m: np.ndarray) -> np.ndarray:
-    return 2.0 * dot(wi, m)[:, None] * m - wi
-
-
 def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: int = 64) -> np.ndarray:
-    """Single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at cos(theta) = mu,
-    by stratified quadrature over the visible normals: E[F G1(wo)] (or E[(1 - F) G1(wo)] through refraction)."""
-    g = (np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2) + 0.5) / n
+    """Single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at cos(theta) = mu
+    (kernels/path_microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals)."""
     out = np.empty(len(mu))
-    a = np.full(len(g), alpha)
-    for i, c in enumerate(mu):
-        wi = np.tile([np.sqrt(1.0 - c * c), 0.0, c], (len(g), 1))
-        m = ggx_sample_visible(wi, g, a, a)
-        c_im = dot(wi, m)
-        f, cos_t, _, eta_ti = fresnel(c_im, eta)
-        if transmit:
-            wo = (eta_ti * c_im + cos_t)[:, None] * m - eta_ti[:, None] * wi
-            w = (1.0 - f) * ggx_g1(wo, m, a, a) * (wo[:, 2] < 0)
-        else:
-            wo = _reflect(wi, m)
-            w = f * ggx_g1(wo, m, a, a) * (wo[:, 2] > 0)
-        out[i] = w.mean()
+    rough_albedo_kernel(np.ascontiguousarray(mu, dtype=np.float64), float(alpha), float(eta), bool(transmit), n, out)
     return out
 
 

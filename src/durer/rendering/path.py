@@ -4,9 +4,10 @@ importance sampling (power heuristic), and Russian roulette, as Mitsuba 3's `pat
 `max_depth` has Mitsuba's meaning: 1 shows emitters seen directly, 2 adds direct light, -1 is unbounded (paths end
 by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths are traced as a wavefront: every
 bounce is one closest_hit and one any_hit query on the scene's accelerator (accel/hits.py) for all live paths of a
-batch, with NumPy doing the shading; there is no Python loop over rays. Random numbers come from the
-counter-based stream of sampling.py keyed by (seed, pixel, sample, dimension), so an image is the same whatever
-the thread count and batch size.
+batch, and between them one Numba pass for the hit surfaces (kernels/surface.py) and one for the shading
+(kernels/path_bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray); there is no Python loop
+over rays. Random numbers come from the counter-based stream of sampling.py / kernels/qmc.py keyed by (seed,
+pixel, sample, dimension), so an image is the same whatever the thread count and batch size.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from .texturing import leaf_weights
 
 BATCH = 1 << 16        # paths per wavefront: whole passes of small images together (2^14 -> 2^16: 1.5x faster)
 MAX_BOUNCES = 1024     # a hard stop for unbounded paths whose throughput never falls (e.g. weights >= 1)
-WORKERS = 2            # wavefronts shaded at once (NumPy frees the GIL)
+WORKERS = 2            # wavefronts traced at once (the kernels and NumPy free the GIL)
 PIXEL_KEY = 0xFFFFFFFF  # the sample index of a pixel's own key (Sobol scrambles), never a real sample index
 
 
@@ -174,7 +175,7 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
             color[v], t_first[v], n_first[v] = tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v])
         return pts, row, col, pix, sidx, color, t_first, n_first
 
-    # NumPy releases the GIL in its loops: WORKERS wavefronts shade at once; results are splatted in job order, so
+    # the kernels are nogil: WORKERS wavefronts are traced at once; results are splatted in job order, so
     # the image does not depend on which finishes first
     with ThreadPoolExecutor(WORKERS, thread_name_prefix="durer-path") as pool:
         for pts, row, col, pix, sidx, color, t_first, n_first in pool.map(run, jobs):
