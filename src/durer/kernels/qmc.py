@@ -13,6 +13,24 @@ _M2 = np.uint64(0x94D049BB133111EB)
 _GOLD = np.uint64(0x9E3779B97F4A7C15)
 _PAIR = np.uint64(0xA0761D6478BD642F)
 _LOW = np.uint64(0xFFFFFFFF)
+
+
+def _sobol2_table() -> np.ndarray:
+    """Sobol's second dimension is linear over GF(2) in the index bits (direction numbers v_0 = 2^31,
+    v_k+1 = v_k ^ (v_k >> 1)): the XOR of v_k over the bits of each byte of the index, for each of its 4 bytes."""
+    v = [0x80000000]
+    for _ in range(31):
+        v.append(v[-1] ^ (v[-1] >> 1))
+    table = np.zeros((4, 256), np.uint32)
+    for k in range(4):
+        for byte in range(256):
+            for bit in range(8):
+                if byte >> bit & 1:
+                    table[k, byte] ^= v[8 * k + bit]
+    return table
+
+
+_SOBOL2 = _sobol2_table()
 _S30, _S27, _S31, _S32, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(32), np.uint64(11)
 
 
@@ -60,14 +78,8 @@ def sobol2(pixel_key, sample, dim):
     s2 = np.uint32(mix64(h) >> _S32)
     index = _owen(np.uint32(sample), shuffle)
     x = _rev32(index)
-    y = np.uint32(0)
-    v = np.uint32(0x80000000)
-    j = index
-    while j:
-        if j & np.uint32(1):
-            y ^= v
-        v ^= v >> np.uint32(1)
-        j >>= np.uint32(1)
+    y = (_SOBOL2[0, index & np.uint32(255)] ^ _SOBOL2[1, (index >> np.uint32(8)) & np.uint32(255)]
+         ^ _SOBOL2[2, (index >> np.uint32(16)) & np.uint32(255)] ^ _SOBOL2[3, index >> np.uint32(24)])
     return np.float64(_owen(x, s1)) * 2.0 ** -32, np.float64(_owen(y, s2)) * 2.0 ** -32
 
 
