@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from durer.kernels import path_warps as W
@@ -31,6 +31,7 @@ def test_uniform_is_uniform_and_dimensions_are_uncorrelated():
     assert abs(np.corrcoef(u, v)[0, 1]) < 0.01
 
 
+@settings(deadline=None)  # the first example may compile the kernel (cold Numba cache)
 @given(st.integers(0, 2**32 - 1), st.integers(0, 30), st.sampled_from([4, 16, 64]))
 def test_sobol_pairs_stratify_every_pixel(pixel_key, dim, n):
     p = S.sobol_pair(np.full(n, pixel_key, np.uint64), np.arange(n), dim)
