@@ -35,7 +35,7 @@ def dim2(depth, k):
 
 @nb.njit(**JIT)
 def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
-                 shadow, shadow_c, shadow_ok, nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta, i0, i1):
+                 shadow, nxt, i0, i1):
     """Shade paths i0..i1 of a wavefront after its closest-hit query.
 
     o, d (n, 3) the rays; hit_* the Hits; ng (n, 3) geometric normals; slot_em the hit's material slot,
@@ -44,13 +44,15 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
     radiance, params, triangles, normals, cdf, triangle -> emitter, sphere -> emitter); env = environment-map
     draws (directions, pdfs, weights) per path; scalars = (depth, emit, last, rr_depth).
-    Adds found light to L[idx]; writes each path's shadow ray (origin, direction, t_max) with its contribution
-    and validity, and its next ray (origin, direction, prev as above, throughput (0: the path ended), eta)."""
+    Adds found light to L[idx]; writes each path's shadow ray: shadow = (origin, direction, t_max, contribution,
+    valid), and its next ray: nxt = (origin, direction, prev as above, throughput (0: the path ended), eta)."""
     idx, sample, keys, pkeys, thr, eta, prev = path
     miss_le, miss_pdf, miss_em = misses
     P, T = bsdf
     K, _, F, _, _, _, tri_em, sph_em = lights
     depth, emit, last, rr_depth = scalars
+    shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = shadow
+    nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta = nxt
     count = K.shape[0]
     for i in range(i0, i1):
         shadow_ok[i] = False
@@ -109,9 +111,9 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
             if max(c0, c1, c2) > 0 and lpdf > 0:
                 side = ld[0] * gx + ld[1] * gy + ld[2] * gz
                 off = scale * (1.0 if side > 0 else (-1.0 if side < 0 else 0.0))
-                shadow[i, 0], shadow[i, 1], shadow[i, 2] = px + off * gx, py + off * gy, pz + off * gz
-                shadow[i, 3], shadow[i, 4], shadow[i, 5] = ld[0], ld[1], ld[2]
-                shadow[i, 6] = math.inf if math.isinf(ldist) else ldist * (1.0 - 1e-6) - scale
+                shadow_o[i, 0], shadow_o[i, 1], shadow_o[i, 2] = px + off * gx, py + off * gy, pz + off * gz
+                shadow_d[i, 0], shadow_d[i, 1], shadow_d[i, 2] = ld[0], ld[1], ld[2]
+                shadow_t[i] = math.inf if math.isinf(ldist) else ldist * (1.0 - 1e-6) - scale
                 shadow_c[i, 0], shadow_c[i, 1], shadow_c[i, 2] = c0, c1, c2
                 shadow_ok[i] = True
         # --- BSDF sampling, Russian roulette, the next ray
@@ -139,3 +141,15 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
         nxt_prev[i, 2], nxt_prev[i, 3], nxt_prev[i, 4] = px, py, pz
         nxt_thr[i, 0], nxt_thr[i, 1], nxt_thr[i, 2] = t0, t1, t2
         nxt_eta[i] = e2
+
+
+@nb.njit(**JIT)
+def add_unblocked(L, idx, q, blocked, contribution):
+    """L[idx[q[k]]] += contribution[q[k]] for the shadow rays k that reached their light."""
+    for k in range(q.shape[0]):
+        if not blocked[k]:
+            i = q[k]
+            j = idx[i]
+            L[j, 0] += contribution[i, 0]
+            L[j, 1] += contribution[i, 1]
+            L[j, 2] += contribution[i, 2]
