@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import COURSE, needs_course
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import durer
@@ -46,6 +46,7 @@ def test_max_depth_one_shows_emitters_only_and_hide_emitters_hides_them():
     assert hidden.color.max() == 0
 
 
+@settings(deadline=None)  # the first example may compile the kernel (cold Numba cache)
 @given(st.floats(0, 1e6), st.floats(0, 1e6))
 def test_mis_weights_sum_to_one(a, b):
     w = power_heuristic1(a, b) + power_heuristic1(b, a)
