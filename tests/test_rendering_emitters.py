@@ -94,13 +94,13 @@ def _sky(h=16, w=32):
 
 def test_environment_map_sampling_is_a_density_and_matches_its_pdf():
     from durer.rendering.envmap import EnvMapLight
-    from durer.rendering.sampling import uniform_sphere
     from durer.scene.lights import EnvironmentMap
     from durer.scene.transforms import rotate
 
     light = EnvMapLight(EnvironmentMap(_sky(), 2.0, rotate((0, 1, 0), 30)))
     rng = np.random.default_rng(5)
-    d = uniform_sphere(rng.random((N, 2)))
+    d = rng.normal(size=(N, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)  # uniform on the sphere
     # integrates to one: pdf * sin(theta) is constant on each cell of the 32 x 15 texel grid (texel centres at
     # u = (i + 1/2) / 32), so the midpoint rule on 4 x 4 points per cell is exact up to rounding
     th = (np.arange(15 * 4) + 0.5) / (15 * 4) * np.pi

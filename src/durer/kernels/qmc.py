@@ -13,6 +13,24 @@ _M2 = np.uint64(0x94D049BB133111EB)
 _GOLD = np.uint64(0x9E3779B97F4A7C15)
 _PAIR = np.uint64(0xA0761D6478BD642F)
 _LOW = np.uint64(0xFFFFFFFF)
+
+
+def _sobol2_table() -> np.ndarray:
+    """Sobol's second dimension is linear over GF(2) in the index bits (direction numbers v_0 = 2^31,
+    v_k+1 = v_k ^ (v_k >> 1)): the XOR of v_k over the bits of each byte of the index, for each of its 4 bytes."""
+    v = [0x80000000]
+    for _ in range(31):
+        v.append(v[-1] ^ (v[-1] >> 1))
+    table = np.zeros((4, 256), np.uint32)
+    for k in range(4):
+        for byte in range(256):
+            for bit in range(8):
+                if byte >> bit & 1:
+                    table[k, byte] ^= v[8 * k + bit]
+    return table
+
+
+_SOBOL2 = _sobol2_table()
 _S30, _S27, _S31, _S32, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(32), np.uint64(11)
 
 
@@ -44,34 +62,36 @@ def _owen(x, seed):
     return _rev32(x)
 
 
+@nb.njit(**JIT, inline="always")
+def uniform1(k, dim):
+    """A 53-bit float in [0, 1) from hash(k, dim): dimension `dim` of the stream keyed k."""
+    return np.float64(mix64(k + np.uint64(dim + 1) * _GOLD) >> _S11) * (1.0 / 9007199254740992.0)
+
+
+@nb.njit(**JIT)
+def sobol2(pixel_key, sample, dim):
+    """Owen-scrambled Sobol point (dimensions 0 and 1) of `sample`, shuffled and scrambled by a hash of
+    (pixel_key, dim): pair `dim` of a pixel's stratified samples."""
+    h = mix64(pixel_key ^ (np.uint64(dim + 1) * _PAIR))
+    shuffle = np.uint32(h & _LOW)
+    s1 = np.uint32(h >> _S32)
+    s2 = np.uint32(mix64(h) >> _S32)
+    index = _owen(np.uint32(sample), shuffle)
+    x = _rev32(index)
+    y = (_SOBOL2[0, index & np.uint32(255)] ^ _SOBOL2[1, (index >> np.uint32(8)) & np.uint32(255)]
+         ^ _SOBOL2[2, (index >> np.uint32(16)) & np.uint32(255)] ^ _SOBOL2[3, index >> np.uint32(24)])
+    return np.float64(_owen(x, s1)) * 2.0 ** -32, np.float64(_owen(y, s2)) * 2.0 ** -32
+
+
 @nb.njit(**JIT)
 def uniform_kernel(keys, dim, out):
-    """out[i] = 53-bit float in [0, 1) from hash(keys[i], dim)."""
-    d = np.uint64(dim + 1) * _GOLD
+    """out[i] = uniform1(keys[i], dim)."""
     for i in range(keys.shape[0]):
-        h = mix64(keys[i] + d)
-        out[i] = np.float64(h >> _S11) * (1.0 / 9007199254740992.0)
+        out[i] = uniform1(keys[i], dim)
 
 
 @nb.njit(**JIT)
 def sobol_pair_kernel(pixel_keys, sample, dim, out):
-    """out[i] = Owen-scrambled Sobol point (dimensions 0 and 1) of sample[i], shuffled and scrambled by a hash of
-    (pixel_keys[i], dim)."""
-    d = np.uint64(dim + 1) * _PAIR
+    """out[i] = sobol2(pixel_keys[i], sample[i], dim)."""
     for i in range(pixel_keys.shape[0]):
-        h = mix64(pixel_keys[i] ^ d)
-        shuffle = np.uint32(h & _LOW)
-        s1 = np.uint32(h >> _S32)
-        s2 = np.uint32(mix64(h) >> _S32)
-        index = _owen(np.uint32(sample[i]), shuffle)
-        x = _rev32(index)
-        y = np.uint32(0)
-        v = np.uint32(0x80000000)
-        j = index
-        while j:
-            if j & np.uint32(1):
-                y ^= v
-            v ^= v >> np.uint32(1)
-            j >>= np.uint32(1)
-        out[i, 0] = np.float64(_owen(x, s1)) * 2.0 ** -32
-        out[i, 1] = np.float64(_owen(y, s2)) * 2.0 ** -32
+        out[i, 0], out[i, 1] = sobol2(pixel_keys[i], sample[i], dim)

@@ -1,4 +1,5 @@
-"""BSDFs for the path tracer: evaluation, importance sampling and pdfs, vectorised over rays in NumPy.
+"""BSDFs for the path tracer: the table of every material slot (packed for kernels/path_bsdf.py, which evaluates and
+samples them), and evaluation, importance sampling and pdfs over arrays of rays through those kernels.
 
 Directions are in the local frame of the (possibly flipped) surface normal, z up, both pointing away from the
 surface: `wi` towards where the path came from, `wo` the new direction. As in Mitsuba 3, eval returns
@@ -25,11 +26,39 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..kernels.path_bsdf import (
+    AU,
+    AV,
+    BLACK,
+    C1,
+    C2,
+    C3,
+    C4,
+    COLUMNS,
+    CONDUCTOR,
+    DIELECTRIC,
+    DIFFUSE,
+    EMISSION,
+    ETA,
+    EXPONENT,
+    FDR_INT,
+    FLIP,
+    KIND,
+    NONLINEAR,
+    PHONG,
+    PLASTIC,
+    ROUGHCONDUCTOR,
+    ROUGHPLASTIC,
+    SMOOTH,
+    SPEC_WEIGHT,
+    TWOSIDED,
+    eval_kernel,
+    sample_kernel,
+)
+from ..kernels.path_microfacet import rough_albedo_kernel
 from ..scene.bsdfs import Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughPlastic, Surface, TwoSided
 from ..scene.materials import PhongMaterial
-from .sampling import cosine_hemisphere, dot, frame, length, normalize, to_world
 
-DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK = range(8)
 ROUGH_RES = 64  # cos(theta) samples of the rough plastic's transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 
 
@@ -58,6 +87,7 @@ class BSDFTable:
     emission: np.ndarray = field(default_factory=_z3)  # front-side radiance of each slot (0: not a light)
     flip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     is_texture: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    _packed: tuple | None = None
 
     @classmethod
     def from_materials(cls, materials: list) -> BSDFTable:
@@ -72,12 +102,26 @@ class BSDFTable:
 
     def smooth(self, slot: np.ndarray) -> np.ndarray:
         """(N,) bool: has the BSDF a non-delta lobe, so that light sampling can reach it?"""
-        k = self.kind[slot]
-        ok = ~np.isin(k, (DIELECTRIC, CONDUCTOR, BLACK))
-        phong = k == PHONG
-        if phong.any():
-            ok[phong] = (self.c1[slot[phong]].max(1) > 0) | (self.c2[slot[phong]].max(1) > 0)
-        return ok
+        return self.packed()[0][slot, SMOOTH] != 0
+
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The table as kernels/path_bsdf.py reads it: one float64 row per slot (its column layout) and the rough
+        plastics' transmittance tables; made once."""
+        if self._packed is None:
+            n = len(self.kind)
+            P = np.zeros((n, COLUMNS))
+            for col, colour in ((C1, self.c1), (C2, self.c2), (C3, self.c3), (C4, self.c4), (EMISSION, self.emission)):
+                P[:, col:col + 3] = colour.reshape(n, 3)
+            for col, value in ((KIND, self.kind), (TWOSIDED, self.twosided), (NONLINEAR, self.nonlinear),
+                               (FLIP, self.flip), (ETA, self.eta), (AU, self.alpha_u), (AV, self.alpha_v),
+                               (EXPONENT, self.exponent), (SPEC_WEIGHT, self.spec_weight), (FDR_INT, self.fdr_int)):
+                P[:, col] = value
+            smooth = ~np.isin(self.kind, (DIELECTRIC, CONDUCTOR, BLACK))
+            phong = self.kind == PHONG
+            smooth[phong] = (self.c1[phong].max(1) > 0) | (self.c2[phong].max(1) > 0)
+            P[:, SMOOTH] = smooth
+            self._packed = P, np.ascontiguousarray(self.transmittance.reshape(n, ROUGH_RES), dtype=np.float64)
+        return self._packed
 
 
 def _row(m) -> dict:
@@ -122,42 +166,7 @@ def _row(m) -> dict:
     return r
 
 
-# --- Fresnel ------------------------------------------------------------------------------------------------------
-def fresnel(cos_i: np.ndarray, eta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Unpolarised Fresnel reflectance of a dielectric interface with relative index eta (int / ext) for
-    cos(theta_i) of either sign. Returns (F, cos_theta_t signed opposite to cos_i, eta_it, eta_ti)."""
-    eta = np.broadcast_to(np.asarray(eta, dtype=np.float64), np.shape(cos_i))
-    outside = cos_i >= 0
-    eta_it = np.where(outside, eta, 1.0 / eta)
-    eta_ti = 1.0 / eta_it
-    cos_t2 = 1.0 - eta_ti ** 2 * (1.0 - cos_i ** 2)
-    ci = np.abs(cos_i)
-    ct = np.sqrt(np.maximum(cos_t2, 0.0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        a_s = (ci - eta_it * ct) / (ci + eta_it * ct)
-        a_p = (eta_it * ci - ct) / (eta_it * ci + ct)
-    f = 0.5 * (a_s ** 2 + a_p ** 2)
-    f = np.where(eta == 1.0, 0.0, np.where((cos_t2 <= 0) | (ci == 0), 1.0, f))
-    return f, np.where(outside, -ct, ct), eta_it, eta_ti
-
-
-def fresnel_conductor(cos_i: np.ndarray, eta: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """(N,3) Fresnel reflectance of a conductor with complex index eta + i k (N,3) at cos(theta_i) (N,)."""
-    c2 = (cos_i ** 2)[:, None]
-    s2 = 1.0 - c2
-    t1 = eta ** 2 - k ** 2 - s2
-    ab = np.sqrt(t1 ** 2 + 4.0 * k ** 2 * eta ** 2)
-    a = np.sqrt(np.maximum(0.5 * (ab + t1), 0.0))
-    term1 = ab + c2
-    term2 = 2.0 * np.sqrt(c2) * a
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rs = (term1 - term2) / (term1 + term2)
-        term3 = ab * c2 + s2 ** 2
-        term4 = term2 * s2
-        rp = rs * (term3 - term4) / (term3 + term4)
-    return np.nan_to_num(0.5 * (rs + rp), nan=1.0)
-
-
+# --- tables -------------------------------------------------------------------------------------------------------
 def fresnel_diffuse_reflectance(eta: float) -> float:
     """Hemispherical average of the dielectric Fresnel reflectance (fits by Egan-Hilgeman and d'Eon-Irving, as
     in Mitsuba's fresnel_diffuse_reflectance)."""
@@ -167,92 +176,21 @@ def fresnel_diffuse_reflectance(eta: float) -> float:
     return 0.919317 - 3.4793 * i + 6.75335 * i ** 2 - 7.80989 * i ** 3 + 4.98554 * i ** 4 - 1.36881 * i ** 5
 
 
-# --- GGX microfacets ----------------------------------------------------------------------------------------------
-def ggx_d(m: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.ndarray:
-    """GGX normal distribution D(m) (projected-area normalised)."""
-    t = (m[:, 0] / au) ** 2 + (m[:, 1] / av) ** 2 + m[:, 2] ** 2
-    d = 1.0 / (np.pi * au * av * t * t)
-    return np.where(m[:, 2] > 0, d, 0.0)
-
-
-def ggx_g1(v: np.ndarray, m: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.ndarray:
-    """Smith's masking G1(v, m) for GGX; 0 where v sees the back of m."""
-    z2 = np.maximum(v[:, 2] ** 2, 1e-300)
-    lam = 0.5 * (-1.0 + np.sqrt(1.0 + ((au * v[:, 0]) ** 2 + (av * v[:, 1]) ** 2) / z2))
-    g = 1.0 / (1.0 + lam)
-    return np.where(dot(v, m) * v[:, 2] > 0, g, 0.0)
-
-
-def ggx_sample_visible(wi: np.ndarray, u: np.ndarray, au: np.ndarray, av: np.ndarray) -> np.ndarray:
-    """Microfacet normals distributed as D_wi(m) = G1(wi, m) max(0, wi.m) D(m) / cos(theta_i) (Heitz 2018)."""
-    vh = np.column_stack([au * wi[:, 0], av * wi[:, 1], wi[:, 2]])
-    vh /= length(vh)[:, None]
-    lensq = vh[:, 0] ** 2 + vh[:, 1] ** 2
-    inv = np.where(lensq > 0, 1.0 / np.sqrt(np.maximum(lensq, 1e-300)), 0.0)
-    t1 = np.where((lensq > 0)[:, None], np.column_stack([-vh[:, 1] * inv, vh[:, 0] * inv, np.zeros(len(vh))]),
-                  np.array([1.0, 0.0, 0.0]))
-    t2 = np.cross(vh, t1)
-    r = np.sqrt(u[:, 0])
-    phi = 2.0 * np.pi * u[:, 1]
-    p1 = r * np.cos(phi)
-    p2 = r * np.sin(phi)
-    s = 0.5 * (1.0 + vh[:, 2])
-    p2 = (1.0 - s) * np.sqrt(np.maximum(0.0, 1.0 - p1 * p1)) + s * p2
-    nh = p1[:, None] * t1 + p2[:, None] * t2 + np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))[:, None] * vh
-    m = np.column_stack([au * nh[:, 0], av * nh[:, 1], np.maximum(nh[:, 2], 1e-12)])
-    return normalize(m)
-
-
-def _reflect(wi: np.ndarray, m: np.ndarray) -> np.ndarray:
-    return 2.0 * dot(wi, m)[:, None] * m - wi
-
-
 def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: int = 64) -> np.ndarray:
-    """Single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at cos(theta) = mu,
-    by stratified quadrature over the visible normals: E[F G1(wo)] (or E[(1 - F) G1(wo)] through refraction)."""
-    g = (np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2) + 0.5) / n
+    """Single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at cos(theta) = mu
+    (kernels/path_microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals)."""
     out = np.empty(len(mu))
-    a = np.full(len(g), alpha)
-    for i, c in enumerate(mu):
-        wi = np.tile([np.sqrt(1.0 - c * c), 0.0, c], (len(g), 1))
-        m = ggx_sample_visible(wi, g, a, a)
-        c_im = dot(wi, m)
-        f, cos_t, _, eta_ti = fresnel(c_im, eta)
-        if transmit:
-            wo = (eta_ti * c_im + cos_t)[:, None] * m - eta_ti[:, None] * wi
-            w = (1.0 - f) * ggx_g1(wo, m, a, a) * (wo[:, 2] < 0)
-        else:
-            wo = _reflect(wi, m)
-            w = f * ggx_g1(wo, m, a, a) * (wo[:, 2] > 0)
-        out[i] = w.mean()
+    rough_albedo_kernel(np.ascontiguousarray(mu, dtype=np.float64), float(alpha), float(eta), bool(transmit), n, out)
     return out
 
 
-# --- dispatch -----------------------------------------------------------------------------------------------------
-def _groups(t: BSDFTable, slot: np.ndarray):
-    """(kind, rows) for each BSDF kind among the slots; rows is a slice (no copies) when there is only one kind."""
-    kind = t.kind[slot]
-    kinds = np.flatnonzero(np.bincount(kind, minlength=BLACK + 1))  # a count, not a sort
-    if len(kinds) == 1:
-        yield int(kinds[0]), slice(None)
-        return
-    for k in kinds:
-        yield int(k), np.flatnonzero(kind == k)
-
-
+# --- evaluation and sampling: the Numba kernels of kernels/path_bsdf.py ------------------------------------------
 def eval_pdf(t: BSDFTable, slot: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """f(wi, wo) * cos(theta_o) (N,3) and the pdf (N,) with which `sample` would pick wo (delta lobes excluded)."""
     n = len(slot)
     value, pdf = np.zeros((n, 3)), np.zeros(n)
-    flip = t.twosided[slot] & (wi[:, 2] < 0)
-    if flip.any():
-        wi, wo = wi.copy(), wo.copy()
-        wi[flip, 2] *= -1
-        wo[flip, 2] *= -1
-    for k, sel in _groups(t, slot):
-        fn = _EVAL.get(k)
-        if fn is not None:
-            value[sel], pdf[sel] = fn(t, slot[sel], wi[sel], wo[sel])
+    P, T = t.packed()
+    eval_kernel(P, T, _i64(slot), _f64(wi), _f64(wo), value, pdf)
     return value, pdf
 
 
@@ -262,219 +200,14 @@ def sample(t: BSDFTable, slot: np.ndarray, wi: np.ndarray, u1: np.ndarray, u2: n
     n = len(slot)
     wo, weight, pdf = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
     delta, eta = np.zeros(n, bool), np.ones(n)
-    flip = t.twosided[slot] & (wi[:, 2] < 0)
-    if flip.any():
-        wi = wi.copy()
-        wi[flip, 2] *= -1
-    for k, sel in _groups(t, slot):
-        fn = _SAMPLE.get(k)
-        if fn is not None:
-            wo[sel], weight[sel], pdf[sel], delta[sel], eta[sel] = fn(t, slot[sel], wi[sel], u1[sel], u2[sel])
-    wo[flip, 2] *= -1
-    weight[~np.isfinite(weight).all(1)] = 0.0
+    P, T = t.packed()
+    sample_kernel(P, T, _i64(slot), _f64(wi), _f64(u1), _f64(u2), wo, weight, pdf, delta, eta)
     return wo, weight, pdf, delta, eta
 
 
-# --- diffuse ------------------------------------------------------------------------------------------------------
-def _diffuse_eval(t, s, wi, wo):
-    ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    c = np.where(ok, wo[:, 2], 0.0)
-    return t.c1[s] * (c / np.pi)[:, None], c / np.pi
+def _i64(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.int64)
 
 
-def _diffuse_sample(t, s, wi, u1, u2):
-    wo = cosine_hemisphere(u2)
-    ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    return wo, t.c1[s] * ok[:, None], np.where(ok, wo[:, 2] / np.pi, 0.0), np.zeros(len(s), bool), np.ones(len(s))
-
-
-# --- smooth dielectric and conductor --------------------------------------------------------------------------------
-def _dielectric_sample(t, s, wi, u1, u2):
-    f, cos_t, eta_it, eta_ti = fresnel(wi[:, 2], t.eta[s])
-    refl = u1 <= f
-    wo = np.where(refl[:, None], wi * np.array([-1.0, -1.0, 1.0]),
-                  np.column_stack([-eta_ti * wi[:, 0], -eta_ti * wi[:, 1], cos_t]))
-    # radiance is scaled by (eta_t / eta_i)^-2 when refracted (Veach's non-symmetric scattering, radiance mode)
-    weight = np.where(refl[:, None], t.c1[s], t.c2[s] * (eta_ti ** 2)[:, None])
-    pdf = np.where(refl, f, 1.0 - f)
-    return wo, weight, pdf, np.ones(len(s), bool), np.where(refl, 1.0, eta_it)
-
-
-def _conductor_sample(t, s, wi, u1, u2):
-    ok = wi[:, 2] > 0
-    wo = wi * np.array([-1.0, -1.0, 1.0])
-    weight = t.c1[s] * fresnel_conductor(wi[:, 2], t.c3[s], t.c4[s]) * ok[:, None]
-    return wo, weight, ok.astype(np.float64), np.ones(len(s), bool), np.ones(len(s))
-
-
-# --- rough conductor ----------------------------------------------------------------------------------------------
-def _microfacet(wi, wo, au, av):
-    """The GGX terms a rough BSDF's eval needs: (both directions above the surface, half vector, D, G1(wi), G,
-    clamped cos of wi)."""
-    ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    h = wi + wo
-    h /= np.maximum(length(h), 1e-300)[:, None]
-    d = ggx_d(h, au, av)
-    g1i = ggx_g1(wi, h, au, av)
-    return ok, h, d, g1i, g1i * ggx_g1(wo, h, au, av), np.maximum(wi[:, 2], 1e-300)
-
-
-def _roughconductor_eval(t, s, wi, wo):
-    ok, h, d, g1i, g, cos_i = _microfacet(wi, wo, t.alpha_u[s], t.alpha_v[s])
-    f = fresnel_conductor(dot(wi, h), t.c3[s], t.c4[s]) * t.c1[s]
-    value = f * np.where(ok, d * g / (4.0 * cos_i), 0.0)[:, None]
-    pdf = np.where(ok, d * g1i / (4.0 * cos_i), 0.0)
-    return value, pdf
-
-
-def _roughconductor_sample(t, s, wi, u1, u2):
-    au, av = t.alpha_u[s], t.alpha_v[s]
-    m = ggx_sample_visible(wi, u2, au, av)
-    wo = _reflect(wi, m)
-    ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    weight = t.c1[s] * fresnel_conductor(dot(wi, m), t.c3[s], t.c4[s]) * (ggx_g1(wo, m, au, av) * ok)[:, None]
-    _, pdf = _roughconductor_eval(t, s, wi, wo)
-    return wo, weight, pdf, np.zeros(len(s), bool), np.ones(len(s))
-
-
-# --- plastics -----------------------------------------------------------------------------------------------------
-def _diffuse_base(t, s):
-    d = t.c1[s]
-    return d / (1.0 - np.where(t.nonlinear[s][:, None], d * t.fdr_int[s][:, None], t.fdr_int[s][:, None]))
-
-
-def _plastic_probs(t, s, wi):
-    if (t.kind[s] == ROUGHPLASTIC).any():
-        ti = _transmittance(t, s, wi[:, 2])
-        ps = (1.0 - ti) * t.spec_weight[s]
-        pd = ti * (1.0 - t.spec_weight[s])
-    else:
-        fi = fresnel(wi[:, 2], t.eta[s])[0]
-        ps = fi * t.spec_weight[s]
-        pd = (1.0 - fi) * (1.0 - t.spec_weight[s])
-    total = ps + pd
-    ps = np.divide(ps, total, out=np.zeros_like(ps), where=total > 0)
-    return ps, 1.0 - ps
-
-
-def _plastic_eval(t, s, wi, wo):
-    ok = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-    eta = t.eta[s]
-    fi, fo = fresnel(wi[:, 2], eta)[0], fresnel(wo[:, 2], eta)[0]
-    _, pd = _plastic_probs(t, s, wi)
-    c = np.where(ok, wo[:, 2], 0.0)
-    value = _diffuse_base(t, s) * ((1.0 - fi) * (1.0 - fo) * c / (np.pi * eta * eta))[:, None]
-    return value, pd * c / np.pi
-
-
-def _plastic_sample(t, s, wi, u1, u2):
-    ok = wi[:, 2] > 0
-    fi = fresnel(wi[:, 2], t.eta[s])[0]
-    ps, pd = _plastic_probs(t, s, wi)
-    spec = u1 < ps
-    wo = np.where(spec[:, None], wi * np.array([-1.0, -1.0, 1.0]), cosine_hemisphere(u2))
-    value, pdf = _plastic_eval(t, s, wi, wo)
-    w_spec = t.c2[s] * np.divide(fi, ps, out=np.zeros_like(fi), where=ps > 0)[:, None]
-    w_diff = np.divide(value, pdf[:, None], out=np.zeros_like(value), where=pdf[:, None] > 0)
-    weight = np.where(spec[:, None], w_spec, w_diff) * ok[:, None]
-    return wo, weight, np.where(spec, ps, pdf), spec, np.ones(len(s))
-
-
-def _transmittance(t, s, cos):
-    x = np.clip(cos, 0.0, 1.0) * (ROUGH_RES - 1)
-    i = np.minimum(x.astype(np.int64), ROUGH_RES - 2)
-    f = x - i
-    tab = t.transmittance[s]
-    rows = np.arange(len(s))
-    return (1.0 - f) * tab[rows, i] + f * tab[rows, i + 1]
-
-
-def _roughplastic_eval(t, s, wi, wo):
-    au = t.alpha_u[s]
-    eta = t.eta[s]
-    ok, h, d, g1i, g, cos_i = _microfacet(wi, wo, au, au)
-    f = fresnel(dot(wi, h), eta)[0]
-    spec = t.c2[s] * (f * d * g / (4.0 * cos_i))[:, None]
-    ti, to = _transmittance(t, s, wi[:, 2]), _transmittance(t, s, wo[:, 2])
-    c = np.where(ok, wo[:, 2], 0.0)
-    diff = _diffuse_base(t, s) * (ti * to * c / (np.pi * eta * eta))[:, None]
-    ps, pd = _plastic_probs(t, s, wi)
-    pdf = ps * d * g1i / (4.0 * cos_i) + pd * c / np.pi
-    return (spec + diff) * ok[:, None], np.where(ok, pdf, 0.0)
-
-
-def _roughplastic_sample(t, s, wi, u1, u2):
-    au = t.alpha_u[s]
-    ps, _ = _plastic_probs(t, s, wi)
-    spec = u1 < ps
-    m = ggx_sample_visible(np.where(wi[:, 2:3] > 0, wi, np.array([0.0, 0.0, 1.0])), u2, au, au)
-    wo = np.where(spec[:, None], _reflect(wi, m), cosine_hemisphere(u2))
-    value, pdf = _roughplastic_eval(t, s, wi, wo)
-    weight = np.divide(value, pdf[:, None], out=np.zeros_like(value), where=pdf[:, None] > 0)
-    return wo, weight, pdf, np.zeros(len(s), bool), np.ones(len(s))
-
-
-# --- the course's Phong material ----------------------------------------------------------------------------------
-def _phong_probs(t, s):
-    w = np.column_stack([t.c1[s].mean(1), t.c2[s].mean(1), t.c3[s].mean(1), t.c4[s].mean(1)])
-    total = w.sum(1, keepdims=True)
-    return np.divide(w, total, out=np.zeros_like(w), where=total > 0)
-
-
-def _phong_lobe(t, s, wi, wo):
-    """Normalised Phong value (without ks) and pdf of wo about the mirror direction of wi (front-side frame)."""
-    e = t.exponent[s]
-    r = wi * np.array([-1.0, -1.0, 1.0])
-    c = np.clip(dot(r, wo), 0.0, 1.0)
-    ce = c ** e
-    return (e + 2.0) / (2.0 * np.pi) * ce, (e + 1.0) / (2.0 * np.pi) * ce
-
-
-def _phong_eval(t, s, wi, wo):
-    side = np.where(wi[:, 2] < 0, -1.0, 1.0)
-    wi = wi * np.column_stack([np.ones(len(s)), np.ones(len(s)), side])
-    wo = wo * np.column_stack([np.ones(len(s)), np.ones(len(s)), side])
-    p = _phong_probs(t, s)
-    ok = wo[:, 2] > 0
-    c = np.where(ok, wo[:, 2], 0.0)
-    lobe, lobe_pdf = _phong_lobe(t, s, wi, wo)
-    value = t.c1[s] * (c / np.pi)[:, None] + t.c2[s] * (lobe * c)[:, None]
-    pdf = p[:, 0] * c / np.pi + p[:, 1] * np.where(ok, lobe_pdf, 0.0)
-    return value, pdf
-
-
-def _phong_sample(t, s, wi, u1, u2):
-    n = len(s)
-    side = np.where(wi[:, 2] < 0, -1.0, 1.0)
-    flip = np.column_stack([np.ones(n), np.ones(n), side])
-    wf = wi * flip
-    p = _phong_probs(t, s)
-    cum = np.cumsum(p, axis=1)
-    lobe = (u1[:, None] >= cum[:, :3]).sum(1)
-    r = wf * np.array([-1.0, -1.0, 1.0])
-    # glossy: cos(alpha) = u^(1 / (e + 1)) about the mirror direction
-    ca = u2[:, 0] ** (1.0 / (t.exponent[s] + 1.0))
-    sa = np.sqrt(np.maximum(0.0, 1.0 - ca * ca))
-    phi = 2.0 * np.pi * u2[:, 1]
-    ts, tt = frame(r)
-    glossy = to_world(np.column_stack([sa * np.cos(phi), sa * np.sin(phi), ca]), ts, tt, r)
-    eta = np.where(side > 0, t.eta[s], 1.0 / np.maximum(t.eta[s], 1e-12))
-    cos_t2 = 1.0 - (1.0 - wf[:, 2] ** 2) / eta ** 2
-    refr = np.column_stack([-wf[:, 0] / eta, -wf[:, 1] / eta, -np.sqrt(np.maximum(cos_t2, 0.0))])
-    refr = np.where((cos_t2 > 0)[:, None], refr, r)  # total internal reflection reflects
-    wo = np.select([(lobe == 0)[:, None], (lobe == 1)[:, None], (lobe == 2)[:, None]],
-                   [cosine_hemisphere(u2), glossy, r], refr)
-    value, pdf = _phong_eval(t, s, wf, wo)
-    smooth_w = np.divide(value, pdf[:, None], out=np.zeros_like(value), where=pdf[:, None] > 0)
-    delta = lobe >= 2
-    pl = p[np.arange(n), np.minimum(lobe, 3)]
-    delta_w = np.where((lobe == 2)[:, None], t.c3[s], t.c4[s]) / np.maximum(pl, 1e-300)[:, None]
-    weight = np.where(delta[:, None], delta_w, smooth_w) * (p.sum(1) > 0)[:, None]
-    return wo * flip, weight, np.where(delta, pl, pdf), delta, np.ones(n)
-
-
-_EVAL = {DIFFUSE: _diffuse_eval, ROUGHCONDUCTOR: _roughconductor_eval, PLASTIC: _plastic_eval,
-         ROUGHPLASTIC: _roughplastic_eval, PHONG: _phong_eval}
-_SAMPLE = {DIFFUSE: _diffuse_sample, DIELECTRIC: _dielectric_sample, CONDUCTOR: _conductor_sample,
-           ROUGHCONDUCTOR: _roughconductor_sample, PLASTIC: _plastic_sample, ROUGHPLASTIC: _roughplastic_sample,
-           PHONG: _phong_sample}
+def _f64(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)

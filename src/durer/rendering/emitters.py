@@ -20,13 +20,31 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..accel.compile import CompiledScene
+from ..kernels.path_emitters import (
+    AREA,
+    AREA_MESH,
+    AREA_SPHERE,
+    ATTENUATION,
+    CENTER,
+    DIRECTION,
+    DIRECTIONAL,
+    ENVIRONMENT,
+    ENVMAP,
+    FIRST_CDF,
+    FIRST_TRI,
+    PARAMS,
+    POINT,
+    POSITION,
+    RADIUS,
+    SPHERE_FLIP,
+    TRI_COUNT,
+    light_pdf_kernel,
+    sample_lights_kernel,
+)
 from ..scene.graph import Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
 from .bsdfs import BSDFTable
 from .envmap import EnvMapLight
-from .sampling import dot, frame, length, to_world, uniform_cone, uniform_cone_pdf, uniform_sphere, uniform_triangle
-
-AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP = range(6)
 
 
 @dataclass
@@ -41,6 +59,7 @@ class Emitters:
     environment: np.ndarray | None = None                   # constant radiance of escaping rays (lighting)
     envmap: EnvMapLight | None = None                       # or an environment map
     environment_id: int = -1
+    _packed: tuple | None = None
 
     @property
     def has_environment(self) -> bool:
@@ -109,122 +128,74 @@ class Emitters:
         self.radiance.append(np.asarray(radiance, dtype=np.float64))
         self.data.append(data)
 
+    def pack(self) -> tuple:
+        """The emitters as the arrays of kernels/path_emitters.py: (kinds, radiance, parameters, triangles,
+        triangle normals, per-emitter area cdfs, triangle -> emitter, sphere -> emitter); made once."""
+        if self._packed is None:
+            F = np.zeros((self.count, PARAMS))
+            tri_v, tri_n, cdf = [np.zeros((0, 9))], [np.zeros((0, 3))], [np.zeros(0)]
+            first_tri = first_cdf = 0
+            for e, (kind, data) in enumerate(zip(self.kind, self.data, strict=True)):
+                if kind == AREA_MESH:
+                    n = len(data["v"])
+                    F[e, [AREA, FIRST_TRI, TRI_COUNT, FIRST_CDF]] = data["area"], first_tri, n, first_cdf
+                    tri_v.append(data["v"].reshape(n, 9))
+                    tri_n.append(data["normal"])
+                    cdf.append(data["cdf"])
+                    first_tri, first_cdf = first_tri + n, first_cdf + n + 1
+                elif kind == AREA_SPHERE:
+                    F[e, CENTER:CENTER + 3] = data["center"]
+                    F[e, RADIUS], F[e, SPHERE_FLIP] = data["radius"], data["flip"]
+                elif kind == POINT:
+                    F[e, POSITION:POSITION + 3] = data["position"]
+                    F[e, ATTENUATION:ATTENUATION + 3] = data["attenuation"]
+                elif kind == DIRECTIONAL:
+                    F[e, DIRECTION:DIRECTION + 3] = data["direction"]
+            radiance = np.array(self.radiance).reshape(self.count, 3)
+            self._packed = tuple(np.ascontiguousarray(a) for a in (
+                np.array(self.kind, np.int64), radiance, F, np.concatenate(tri_v), np.concatenate(tri_n),
+                np.concatenate(cdf), self.triangle_emitter, self.sphere_emitter))
+        return self._packed
+
+    def envmap_draws(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The environment map's light samples for (N,2) numbers u: directions, pdfs, radiance / pdf (the kernels
+        take them as arrays; empty without a map)."""
+        if self.envmap is None:
+            return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3))
+        d, pdf = self.envmap.sample(u)
+        w = self.envmap.eval(d) / np.maximum(pdf, 1e-300)[:, None]
+        return np.ascontiguousarray(d), pdf, np.ascontiguousarray(np.where((pdf > 0)[:, None], w, 0.0))
+
     def sample(self, p: np.ndarray, u_pick: np.ndarray, u: np.ndarray):
-        """Next-event estimation from points p (N,3): returns unit directions (N,3), distances (N,; inf for lights
-        at infinity), weights = emitted radiance / pdf (N,3; 0 where the sample is invalid), solid-angle pdfs (N,;
-        inf for delta lights)."""
+        """Next-event estimation from points p (N,3), an emitter picked uniformly: returns unit directions (N,3),
+        distances (N,; inf for lights at infinity), weights = emitted radiance / pdf (N,3; 0 where the sample is
+        invalid), solid-angle pdfs (N,; inf for delta lights)."""
         n = len(p)
         d, dist, w, pdf = np.zeros((n, 3)), np.full(n, np.inf), np.zeros((n, 3)), np.zeros(n)
-        if not self.count or not n:
-            return d, dist, w, pdf
-        if self.count == 1:  # one emitter: no picking, no copies
-            d, dist, w, pdf = self._sample_one(0, p, u)
-        else:
-            pick = np.minimum((u_pick * self.count).astype(np.int64), self.count - 1)
-            for em in np.unique(pick):
-                sel = np.flatnonzero(pick == em)
-                d[sel], dist[sel], w[sel], pdf[sel] = self._sample_one(int(em), p[sel], u[sel])
-        finite = np.isfinite(pdf)
-        pdf[finite] /= self.count
-        w *= self.count
+        if self.count and n:
+            u = np.ascontiguousarray(u, dtype=np.float64)
+            sample_lights_kernel(np.ascontiguousarray(p, dtype=np.float64), np.asarray(u_pick, dtype=np.float64),
+                                 u, self.pack(), self.envmap_draws(u), d, dist, w, pdf)
         return d, dist, w, pdf
-
-    def _sample_one(self, em: int, p: np.ndarray, u: np.ndarray):
-        kind, le, data = self.kind[em], self.radiance[em], self.data[em]
-        n = len(p)
-        if kind == POINT:
-            to = data["position"] - p
-            dist = length(to)
-            a, b, c = data["attenuation"]
-            w = le[None, :] / (a + b * dist + c * dist * dist)[:, None]
-            return to / dist[:, None], dist, w, np.full(n, np.inf)
-        if kind == DIRECTIONAL:
-            return np.tile(-data["direction"], (n, 1)), np.full(n, np.inf), np.tile(le, (n, 1)), np.full(n, np.inf)
-        if kind == ENVMAP:
-            d, pdf = self.envmap.sample(u)
-            w = self.envmap.eval(d) / np.maximum(pdf, 1e-300)[:, None]
-            return d, np.full(n, np.inf), np.where((pdf > 0)[:, None], w, 0.0), pdf
-        if kind == ENVIRONMENT:
-            d = uniform_sphere(u)
-            return d, np.full(n, np.inf), np.tile(le * 4.0 * np.pi, (n, 1)), np.full(n, 1.0 / (4.0 * np.pi))
-        if kind == AREA_MESH:
-            cdf = data["cdf"]
-            tri = np.clip(np.searchsorted(cdf, u[:, 0], side="right") - 1, 0, len(cdf) - 2)
-            lo, hi = cdf[tri], cdf[tri + 1]
-            u0 = np.clip((u[:, 0] - lo) / np.maximum(hi - lo, 1e-300), 0.0, 1.0 - 1e-16)
-            b = uniform_triangle(np.column_stack([u0, u[:, 1]]))
-            v = data["v"][tri]
-            y = (1.0 - b[:, 0] - b[:, 1])[:, None] * v[:, 0] + b[:, :1] * v[:, 1] + b[:, 1:] * v[:, 2]
-            normal = data["normal"][tri]
-            area_pdf = np.full(n, 1.0 / data["area"])
-        else:  # AREA_SPHERE
-            y, normal, pdf, inside = self._sphere_point(data, p, u)
-            area_pdf = pdf
-        to = y - p
-        dist = length(to)
-        d = to / np.maximum(dist, 1e-300)[:, None]
-        cos_l = -dot(d, normal)
-        ok = (cos_l > 0) & (dist > 0)
-        if kind == AREA_SPHERE:
-            pdf = np.where(inside, area_pdf * dist * dist / np.maximum(cos_l, 1e-300), area_pdf)
-        else:
-            pdf = area_pdf * dist * dist / np.maximum(cos_l, 1e-300)
-        pdf = np.where(ok, pdf, 0.0)
-        w = np.where(ok[:, None], le[None, :] / np.maximum(pdf, 1e-300)[:, None], 0.0)
-        return d, dist, w, pdf
-
-    @staticmethod
-    def _sphere_point(data: dict, p: np.ndarray, u: np.ndarray):
-        """A point on the sphere seen from p: by solid angle (cone) from outside (pdf per solid angle), uniformly by
-        area from inside (pdf per area). Returns point, its emitting normal, pdf and the inside mask."""
-        c, r = data["center"], data["radius"]
-        to_c = c - p
-        dc = length(to_c)
-        inside = dc <= r * (1.0 + 1e-9)
-        axis = to_c / np.maximum(dc, 1e-300)[:, None]
-        sin2 = np.minimum((r / np.maximum(dc, 1e-300)) ** 2, 1.0)
-        cos_max = np.sqrt(1.0 - sin2)
-        s, t = frame(axis)
-        d = to_world(uniform_cone(u, cos_max), s, t, axis)
-        # nearest intersection of p + x d with the sphere (the tangent ray when rounding misses it)
-        b = dot(d, to_c)
-        disc = np.maximum(b * b - (dc * dc - r * r), 0.0)
-        x = b - np.sqrt(disc)
-        y_out = p + x[:, None] * d
-        y_in = c + r * uniform_sphere(u)
-        y = np.where(inside[:, None], y_in, y_out)
-        normal = (y - c) / r
-        if data["flip"]:
-            normal = -normal
-        pdf = np.where(inside, 1.0 / (4.0 * np.pi * r * r), uniform_cone_pdf(cos_max))
-        return y, normal, pdf, inside
 
     def pdf_hit(self, em: np.ndarray, p_prev: np.ndarray, y: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """Solid-angle pdf (N,) with which `sample` from p_prev would have chosen point y (with emitting normal
         `normal`) on area emitter em (N,), or the environment direction y - p_prev when em is environment_id."""
+        em = np.ascontiguousarray(em, dtype=np.int64)
         out = np.zeros(len(em))
-        for e in np.unique(em):
-            sel = np.flatnonzero(em == e)
-            kind, data = self.kind[e], self.data[e]
-            if kind == ENVIRONMENT:
-                out[sel] = 1.0 / (4.0 * np.pi)
-                continue
-            if kind == ENVMAP:
-                out[sel] = self.envmap.pdf(y[sel] - p_prev[sel])
-                continue
-            to = y[sel] - p_prev[sel]
-            dist2 = dot(to, to)
-            cos_l = np.abs(dot(to, normal[sel])) / np.sqrt(np.maximum(dist2, 1e-300))
-            if kind == AREA_MESH:
-                out[sel] = dist2 / np.maximum(data["area"] * cos_l, 1e-300)
-            else:
-                c, r = data["center"], data["radius"]
-                dc = length(c - p_prev[sel])
-                inside = dc <= r * (1.0 + 1e-9)
-                cos_max = np.sqrt(1.0 - np.minimum((r / np.maximum(dc, 1e-300)) ** 2, 1.0))
-                out[sel] = np.where(inside, dist2 / np.maximum(4.0 * np.pi * r * r * cos_l, 1e-300),
-                                    uniform_cone_pdf(cos_max))
-        return out / max(self.count, 1)
+        packed = self.pack()
+        c64 = [np.ascontiguousarray(a, dtype=np.float64) for a in (p_prev, y, normal)]
+        light_pdf_kernel(em, *c64, packed[0], packed[2], out)
+        if self.envmap is not None:
+            sel = np.flatnonzero(em == self.environment_id)
+            out[sel] = self.envmap.pdf(y[sel] - p_prev[sel]) / self.count
+        return out
+
+    def miss_pdf(self, d: np.ndarray) -> np.ndarray:
+        """The pdf (N,) with which light sampling picks the environment directions d (N,3) of escaping rays."""
+        if self.envmap is not None:
+            return self.envmap.pdf(d) / self.count
+        return np.full(len(d), 1.0 / (4.0 * np.pi * self.count))
 
 
 def _world_sphere(cs: CompiledScene, k: int) -> tuple[np.ndarray, float]:

@@ -4,9 +4,10 @@ importance sampling (power heuristic), and Russian roulette, as Mitsuba 3's `pat
 `max_depth` has Mitsuba's meaning: 1 shows emitters seen directly, 2 adds direct light, -1 is unbounded (paths end
 by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths are traced as a wavefront: every
 bounce is one closest_hit and one any_hit query on the scene's accelerator (accel/hits.py) for all live paths of a
-batch, with NumPy doing the shading; there is no Python loop over rays. Random numbers come from the
-counter-based stream of sampling.py keyed by (seed, pixel, sample, dimension), so an image is the same whatever
-the thread count and batch size.
+batch, and between them one Numba pass for the hit surfaces (kernels/surface.py) and one for the shading
+(kernels/path_bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray); there is no Python loop
+over rays. Random numbers come from the counter-based stream of sampling.py / kernels/qmc.py keyed by (seed,
+pixel, sample, dimension), so an image is the same whatever the thread count and batch size.
 """
 
 from __future__ import annotations
@@ -15,31 +16,21 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ..accel.hits import geometric_normals, hit_materials
-from ..kernels.layout import SPHERE, TRIANGLE
+from ..kernels.path_bounce import add_unblocked, dim1, dim2, shade_bounce
+from ..kernels.surface import hit_surfaces
+from ..kernels.threads import run_pieces
 from ..scene.cameras import image_camera
 from . import film
-from .bsdfs import BSDFTable, eval_pdf, sample
+from .bsdfs import BSDFTable
 from .emitters import Emitters
 from .raycaster import RenderContext
-from .sampling import dot, frame, key, max3, normalize, power_heuristic, sobol_pair, to_local, to_world, uniform
+from .sampling import key, max3, normalize, sobol_pair, uniform
 from .texturing import leaf_weights
 
 BATCH = 1 << 16        # paths per wavefront: whole passes of small images together (2^14 -> 2^16: 1.5x faster)
 MAX_BOUNCES = 1024     # a hard stop for unbounded paths whose throughput never falls (e.g. weights >= 1)
-WORKERS = 2            # wavefronts shaded at once (NumPy frees the GIL)
-DIMS = 8               # random dimensions per bounce (see _dim)
+WORKERS = 2            # wavefronts traced at once (the kernels and NumPy free the GIL)
 PIXEL_KEY = 0xFFFFFFFF  # the sample index of a pixel's own key (Sobol scrambles), never a real sample index
-
-
-def _dim(depth: int, k: int) -> int:
-    """1-D dimension k of bounce `depth`: 0 light pick, 1 lobe pick, 2 Russian roulette, 3 texture pick."""
-    return 1 + depth * DIMS + k
-
-
-def _pair(depth: int, k: int) -> int:
-    """2-D Sobol pair k of bounce `depth` (pair 0 is the pixel position): 0 light position, 1 BSDF direction."""
-    return 1 + 2 * depth + k
 
 
 class PathTracer:
@@ -54,115 +45,90 @@ class PathTracer:
         self.max_depth, self.rr_depth, self.hide = o.max_depth, o.rr_depth, o.hide_emitters
         # course scenes show the background colour to camera rays that escape (the environment only lights)
         self.background = None if scene.radiometric_lights else scene.background_color
-        self._tri_em, self._sph_em = self.emitters.triangle_emitter, self.emitters.sphere_emitter
+        flat = ctx.compiled.flat  # instances flattened: hit_surfaces reads every triangle from one array
+        self._surfaces = tuple(np.ascontiguousarray(a) for a in (
+            flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
+            flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
+            flat.plane_material))
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
         """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
         ctx, tb, em = self.ctx, self.table, self.emitters
         seed = ctx.options.seed
         n = len(origins)
+        sample_index = np.ascontiguousarray(sample_index, dtype=np.int64)
         keys = key(seed, pixel, sample_index)
         pkeys = key(seed, pixel, np.full(n, PIXEL_KEY))
         L = np.zeros((n, 3))
         first_t, first_n = np.full(n, np.inf), np.zeros((n, 3))
         idx = np.arange(n)
-        o, d = origins.copy(), normalize(directions)
+        # every bounce works in views of these buffers (first m rows): fresh arrays per bounce measured a quarter
+        # of the CPU time in page faults; live paths are gathered from the `nxt` arrays back into the state
+        o, d = np.ascontiguousarray(origins, dtype=np.float64).copy(), np.ascontiguousarray(normalize(directions))
         thr, eta = np.ones((n, 3)), np.ones(n)
-        prev_pdf, prev_delta, prev_p = np.ones(n), np.ones(n, bool), origins.copy()
+        prev = np.column_stack([np.ones(n), np.ones(n), origins])  # pdf, delta flag, point of the last bounce
+        p, ng, slot_em = np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
+        shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
+                                                             np.empty((n, 3)), np.empty(n, bool))
+        sh_o, sh_d, sh_t = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta = (np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 5)),
+                                                    np.empty((n, 3)), np.empty(n))
         tmin: float | np.ndarray = t_min
-        depth = 0
-        while len(idx) and depth < MAX_BOUNCES:
-            hits = ctx.accel.closest_hit(o, d, t_min=tmin)
+        depth, m = 0, n
+        while m and depth < MAX_BOUNCES:
+            # camera rays may be traced as image tiles (width 0: the accelerator looks); later rays are not an image
+            hits = ctx.accel.closest_hit(o[:m], d[:m], t_min=tmin, width=0 if depth == 0 else -1)
             hit = hits.hit
-            p = o + np.where(hit, hits.t, 0.0)[:, None] * d
-            ng = geometric_normals(ctx.compiled, hits, p)
-            slot = hit_materials(ctx.compiled, hits)
+            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, slot_em)
             if depth == 0:
-                first_t[idx], first_n[idx] = hits.t, ng
-            # --- emission seen by this ray (BSDF sampling's share of MIS)
-            emitted = np.zeros((len(idx), 3))
-            em_id = np.full(len(idx), -1, np.int64)
-            if hit.any():
-                h = np.flatnonzero(hit)
-                ns = ng[h] * np.where(tb.flip[slot[h]], -1.0, 1.0)[:, None]
-                front = dot(ns, d[h]) < 0
-                emitted[h] = tb.emission[slot[h]] * front[:, None]
-                eid = np.full(len(h), -1, np.int64)
-                tri = hits.kind[h] == TRIANGLE
-                eid[tri] = self._tri_em[hits.prim[h][tri]]
-                sph = hits.kind[h] == SPHERE
-                eid[sph] = self._sph_em[hits.prim[h][sph]]
-                em_id[h] = np.where(front, eid, -1)
-            miss = ~hit
-            if miss.any() and em.has_environment:
-                emitted[miss] = em.environment_radiance(d[miss])
-                em_id[miss] = em.environment_id
-            if depth == 0 and self.background is not None:
-                emitted[miss] = self.background
-                em_id[miss] = -1
-            if depth > 0 or not self.hide:
-                w = np.ones(len(idx))
-                mis = (~prev_delta) & (em_id >= 0)
-                if mis.any():
-                    s = np.flatnonzero(mis)
-                    y = np.where(hit[s, None], p[s], prev_p[s] + d[s])
-                    nrm = ng[s] * np.where(tb.flip[np.maximum(slot[s], 0)], -1.0, 1.0)[:, None]
-                    pdf_l = em.pdf_hit(em_id[s], prev_p[s], y, nrm)
-                    w[s] = power_heuristic(prev_pdf[s], pdf_l)
-                L[idx] += thr * emitted * w[:, None]
-            if 0 <= self.max_depth <= depth + 1:
+                first_t[idx], first_n[idx] = hits.t, ng[:m]
+            last = 0 <= self.max_depth <= depth + 1
+            slot = slot_em
+            if tb.is_texture.any() and not last:
+                slot = self._resolve_textures(slot_em[:m], hit, p[:m], uniform(keys[idx], dim1(depth, 3)))
+            env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
+            if em.envmap is not None and not last:
+                env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
+            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, slot_em, slot,
+                       (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
+                       tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth), L,
+                       (shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok), (nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta))
+            if last:
                 break
-            # --- continue on hits only
-            keep = np.flatnonzero(hit)
-            idx, o, d, p, ng, slot = idx[keep], o[keep], d[keep], p[keep], ng[keep], slot[keep]
-            thr, eta = thr[keep], eta[keep]
-            if not len(idx):
-                break
-            if tb.is_texture.any():
-                slot = self._resolve_textures(slot, p, uniform(keys[idx], _dim(depth, 3)))
-            ns = ng * np.where(tb.flip[slot], -1.0, 1.0)[:, None]
-            ts, tt = frame(ns)
-            wi = to_local(-d, ts, tt, ns)
-            scale = 1e-7 * (1.0 + max3(np.abs(p))[:, None])
-            # --- next-event estimation (light sampling's share of MIS)
-            smooth = tb.smooth(slot)
-            if em.count and smooth.any():
-                s = slice(None) if smooth.all() else np.flatnonzero(smooth)  # a slice copies nothing
-                ld, ldist, lw, lpdf = em.sample(p[s], uniform(keys[idx[s]], _dim(depth, 0)),
-                                                sobol_pair(pkeys[idx[s]], sample_index[idx[s]], _pair(depth, 0)))
-                wo = to_local(ld, ts[s], tt[s], ns[s])
-                f, bpdf = eval_pdf(tb, slot[s], wi[s], wo)
-                contrib = thr[s] * f * lw * np.where(np.isinf(lpdf), 1.0, power_heuristic(lpdf, bpdf))[:, None]
-                live = np.flatnonzero((max3(contrib) > 0) & (lpdf > 0))
-                if len(live):
-                    q = live if isinstance(s, slice) else s[live]
-                    so = p[q] + scale[q] * ng[q] * np.sign(dot(ld[live], ng[q]))[:, None]
-                    tmax = np.where(np.isinf(ldist[live]), np.inf, ldist[live] * (1.0 - 1e-6) - scale[q, 0])
-                    blocked = ctx.accel.any_hit(so, ld[live], t_min=0.0, t_max=tmax)
-                    L[idx[q]] += contrib[live] * ~blocked[:, None]
-            # --- BSDF sampling
-            u1 = uniform(keys[idx], _dim(depth, 1))
-            u2 = sobol_pair(pkeys[idx], sample_index[idx], _pair(depth, 1))
-            wo_l, bw, bpdf, delta, beta = sample(tb, slot, wi, u1, u2)
-            wo = to_world(wo_l, ts, tt, ns)
-            thr = thr * bw
-            eta = eta * beta
-            depth += 1
-            if self.rr_depth <= depth:
-                q = np.minimum(max3(thr) * eta * eta, 0.95)
-                survive = uniform(keys[idx], _dim(depth - 1, 2)) < q
-                thr = np.where(survive[:, None], thr / np.maximum(q, 1e-300)[:, None], 0.0)
-            alive = np.flatnonzero(max3(thr) > 0)
-            idx, p, ng, wo, thr, eta = idx[alive], p[alive], ng[alive], wo[alive], thr[alive], eta[alive]
-            prev_pdf, prev_delta, prev_p = bpdf[alive], delta[alive], p
-            o = p + scale[alive] * ng * np.sign(dot(wo, ng))[:, None]
-            d = normalize(wo)
+            q = np.flatnonzero(shadow_ok[:m])
+            if len(q):
+                k = len(q)
+                for src, dst in ((shadow_o, sh_o), (shadow_d, sh_d), (shadow_t, sh_t)):
+                    np.take(src, q, axis=0, out=dst[:k], mode="clip")
+                blocked = ctx.accel.any_hit(sh_o[:k], sh_d[:k], t_min=0.0, t_max=sh_t[:k], width=-1)
+                add_unblocked(L, idx, q, blocked, shadow_c)
+            alive = np.flatnonzero(max3(nxt_thr[:m]) > 0)
+            m = len(alive)
+            idx = idx[alive]
+            for src, dst in ((nxt_o, o), (nxt_d, d), (nxt_prev, prev), (nxt_thr, thr), (nxt_eta, eta)):
+                np.take(src, alive, axis=0, out=dst[:m], mode="clip")
             tmin = 0.0
+            depth += 1
         return L, first_t, first_n
 
-    def _resolve_textures(self, slot: np.ndarray, p: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def _misses(self, d: np.ndarray, hit: np.ndarray, depth: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Radiance (N,3) seen by the rays that escape, its light-sampling pdf (N,) and whether it is an emitter
+        (N,) (for MIS): the environment, or a course scene's background colour for camera rays."""
+        n, em = len(d), self.emitters
+        radiance, pdf, is_emitter = np.zeros((n, 3)), np.zeros(n), np.zeros(n, bool)
+        miss = np.flatnonzero(~hit)
+        if len(miss) and em.has_environment:
+            radiance[miss] = em.environment_radiance(d[miss])
+            pdf[miss] = em.miss_pdf(d[miss])
+            is_emitter[miss] = True
+        if len(miss) and depth == 0 and self.background is not None:
+            radiance[miss] = self.background
+            is_emitter[miss] = False
+        return radiance, pdf, is_emitter
+
+    def _resolve_textures(self, slot: np.ndarray, hit: np.ndarray, p: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Course solid textures: pick one blended material per hit, with the texture's weight as probability."""
-        tex = self.table.is_texture[slot]
+        tex = hit & self.table.is_texture[slot]
         if not tex.any():
             return slot
         t = np.flatnonzero(tex)
@@ -217,7 +183,7 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
             color[v], t_first[v], n_first[v] = tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v])
         return pts, row, col, pix, sidx, color, t_first, n_first
 
-    # NumPy releases the GIL in its loops: WORKERS wavefronts shade at once; results are splatted in job order, so
+    # the kernels are nogil: WORKERS wavefronts are traced at once; results are splatted in job order, so
     # the image does not depend on which finishes first
     with ThreadPoolExecutor(WORKERS, thread_name_prefix="durer-path") as pool:
         for pts, row, col, pix, sidx, color, t_first, n_first in pool.map(run, jobs):

@@ -6,7 +6,7 @@ dimensions (pixel position, light position, BSDF direction) come from Owen-scram
 "Practical Hash-based Owen Scrambling", JCGT 9(4)): within one pixel the samples 0..n-1 of a pair form a randomly
 scrambled (0, 2)-sequence, stratified at every power of two, and each pair is shuffled and scrambled with its own
 hash so pairs are independent of each other. Single dimensions (light choice, lobe choice, Russian roulette) are
-plain hashes. Warps map [0,1)^2 to directions or points with the pdfs the integrator needs.
+plain hashes. (The warps that map them to directions and points are scalar kernels: kernels/path_warps.py.)
 """
 
 from __future__ import annotations
@@ -70,85 +70,3 @@ def length(a: np.ndarray) -> np.ndarray:
 
 def normalize(a: np.ndarray) -> np.ndarray:
     return a / length(a)[:, None]
-
-
-# --- warps --------------------------------------------------------------------------------------------------------
-def cosine_hemisphere(u: np.ndarray) -> np.ndarray:
-    """(N,2) -> (N,3) directions about +z with pdf cos(theta) / pi (Malley: the concentric disk lifted)."""
-    d = concentric_disk(u)
-    z = np.sqrt(np.maximum(0.0, 1.0 - d[:, 0] ** 2 - d[:, 1] ** 2))
-    return np.column_stack([d, z])
-
-
-def cosine_hemisphere_pdf(w: np.ndarray) -> np.ndarray:
-    return np.maximum(w[:, 2], 0.0) / np.pi
-
-
-def concentric_disk(u: np.ndarray) -> np.ndarray:
-    """Shirley-Chiu concentric map of [0,1)^2 onto the unit disk (area preserving up to a constant)."""
-    a = 2.0 * u[:, 0] - 1.0
-    b = 2.0 * u[:, 1] - 1.0
-    first = np.abs(a) > np.abs(b)
-    safe_a = np.where(a == 0, 1.0, a)
-    safe_b = np.where(b == 0, 1.0, b)
-    r = np.where(first, a, b)
-    phi = np.where(first, (np.pi / 4) * (b / safe_a), np.pi / 2 - (np.pi / 4) * (a / safe_b))
-    zero = (a == 0) & (b == 0)
-    r = np.where(zero, 0.0, r)
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
-
-
-def uniform_sphere(u: np.ndarray) -> np.ndarray:
-    """(N,2) -> unit vectors uniform on the sphere, pdf 1 / (4 pi)."""
-    z = 1.0 - 2.0 * u[:, 0]
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    phi = 2.0 * np.pi * u[:, 1]
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-
-
-def uniform_cone(u: np.ndarray, cos_max: np.ndarray) -> np.ndarray:
-    """(N,2) -> unit vectors about +z uniform in the cone cos(theta) >= cos_max, pdf 1 / (2 pi (1 - cos_max))."""
-    z = 1.0 - u[:, 0] * (1.0 - cos_max)
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    phi = 2.0 * np.pi * u[:, 1]
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-
-
-def uniform_cone_pdf(cos_max: np.ndarray) -> np.ndarray:
-    return 1.0 / (2.0 * np.pi * np.maximum(1.0 - cos_max, 1e-300))
-
-
-def uniform_triangle(u: np.ndarray) -> np.ndarray:
-    """(N,2) -> barycentrics (b1, b2) uniform over a triangle (the square-root warp)."""
-    s = np.sqrt(u[:, 0])
-    return np.column_stack([1.0 - s, u[:, 1] * s])
-
-
-def frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit tangents (N,3) completing unit normals n (N,3) into right-handed frames (Duff et al. 2017)."""
-    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    a = -1.0 / (sign + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    s = np.column_stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]])
-    t = np.column_stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]])
-    return s, t
-
-
-def to_local(v: np.ndarray, s: np.ndarray, t: np.ndarray, n: np.ndarray) -> np.ndarray:
-    return np.column_stack([dot(v, s), dot(v, t), dot(v, n)])
-
-
-def to_world(v: np.ndarray, s: np.ndarray, t: np.ndarray, n: np.ndarray) -> np.ndarray:
-    return v[:, :1] * s + v[:, 1:2] * t + v[:, 2:3] * n
-
-
-def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """MIS weight a^2 / (a^2 + b^2) of the strategy with pdf a against the one with pdf b (0 where both are 0);
-    an infinite a (a delta strategy) gets weight 1."""
-    delta = np.isinf(a)
-    a, b = np.where(delta, 1.0, a), np.where(delta, 0.0, b)
-    m = np.maximum(a, b)
-    safe = np.where(m > 0, m, 1.0)
-    a2, b2 = np.square(a / safe), np.square(b / safe)  # scaled: no underflow of tiny pdfs
-    total = a2 + b2
-    return np.divide(a2, total, out=np.zeros_like(total), where=total > 0)

@@ -1,0 +1,323 @@
+"""The path tracer's BSDFs as scalar Numba functions: evaluation, importance sampling and pdfs of one direction
+pair, read from a packed table (one float64 row per material slot, columns below; rendering/bsdfs.py builds it and
+documents the models and the course's Phong mapping).
+
+Directions are in the local frame of the (possibly flipped) surface normal, z up, both pointing away from the
+surface: wi towards where the path came from, wo the new direction. As in Mitsuba 3, eval returns
+f(wi, wo) cos(theta_o), sample returns wo with weight = f cos / pdf, and delta lobes are reached only by sampling.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from .layout import JIT
+from .path_microfacet import fresnel1, fresnel_conductor1, ggx_d1, ggx_g11, ggx_sample_visible1
+from .path_warps import INV_PI, cosine_hemisphere3, frame3, to_world3
+
+DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK = range(8)
+# columns of the packed table: kind, flags, four colours (3 each), scalars, emission
+KIND, TWOSIDED, C1, C2, C3, C4, ETA, AU, AV, EXPONENT, SPEC_WEIGHT, FDR_INT, NONLINEAR, FLIP, EMISSION, SMOOTH = (
+    0, 1, 2, 5, 8, 11, 14, 15, 16, 17, 18, 19, 20, 21, 22, 25)
+COLUMNS = 26
+
+
+@nb.njit(**JIT, inline="always")
+def _reflect(wx, wy, wz, mx, my, mz):
+    c = 2.0 * (wx * mx + wy * my + wz * mz)
+    return c * mx - wx, c * my - wy, c * mz - wz
+
+
+@nb.njit(**JIT, inline="always")
+def _diffuse_base(P, s, c):
+    d = P[s, C1 + c]
+    fdr = P[s, FDR_INT]
+    return d / (1.0 - (d * fdr if P[s, NONLINEAR] != 0 else fdr))
+
+
+@nb.njit(**JIT)
+def _transmittance(T, s, cos):
+    """The rough plastic's tabulated transmittance at cos(theta), linearly interpolated."""
+    res = T.shape[1]
+    x = min(max(cos, 0.0), 1.0) * (res - 1)
+    i = min(int(x), res - 2)
+    f = x - i
+    return (1.0 - f) * T[s, i] + f * T[s, i + 1]
+
+
+@nb.njit(**JIT)
+def _plastic_probs(P, T, s, wz):
+    """Probabilities of the specular and the diffuse lobe of a (rough) plastic seen from wi."""
+    sw = P[s, SPEC_WEIGHT]
+    if P[s, KIND] == ROUGHPLASTIC:
+        ti = _transmittance(T, s, wz)
+        ps, pd = (1.0 - ti) * sw, ti * (1.0 - sw)
+    else:
+        fi = fresnel1(wz, P[s, ETA])[0]
+        ps, pd = fi * sw, (1.0 - fi) * (1.0 - sw)
+    total = ps + pd
+    ps = ps / total if total > 0 else 0.0
+    return ps, 1.0 - ps
+
+
+@nb.njit(**JIT)
+def _microfacet(wi, wo, au, av):
+    """GGX terms of a rough BSDF's eval: half vector, D, G1(wi), G and the clamped cos of wi."""
+    hx, hy, hz = wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]
+    ln = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-300)
+    hx, hy, hz = hx / ln, hy / ln, hz / ln
+    d = ggx_d1(hx, hy, hz, au, av)
+    g1i = ggx_g11(wi[0], wi[1], wi[2], hx, hy, hz, au, av)
+    g = g1i * ggx_g11(wo[0], wo[1], wo[2], hx, hy, hz, au, av)
+    return hx, hy, hz, d, g1i, g, max(wi[2], 1e-300)
+
+
+@nb.njit(**JIT)
+def _phong_probs(P, s):
+    w0 = (P[s, C1] + P[s, C1 + 1] + P[s, C1 + 2]) / 3.0
+    w1 = (P[s, C2] + P[s, C2 + 1] + P[s, C2 + 2]) / 3.0
+    w2 = (P[s, C3] + P[s, C3 + 1] + P[s, C3 + 2]) / 3.0
+    w3 = (P[s, C4] + P[s, C4 + 1] + P[s, C4 + 2]) / 3.0
+    total = w0 + w1 + w2 + w3
+    if total > 0:
+        return w0 / total, w1 / total, w2 / total, w3 / total
+    return 0.0, 0.0, 0.0, 0.0
+
+
+@nb.njit(**JIT, inline="always")
+def _diffuse_eval(P, s, wi, wo):
+    c = wo[2] * INV_PI if wi[2] > 0 and wo[2] > 0 else 0.0
+    return P[s, C1] * c, P[s, C1 + 1] * c, P[s, C1 + 2] * c, c
+
+
+@nb.njit(**JIT)
+def _roughconductor_eval(P, s, wi, wo):
+    ok = wi[2] > 0 and wo[2] > 0
+    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, P[s, AU], P[s, AV])
+    ch = wi[0] * hx + wi[1] * hy + wi[2] * hz
+    m = d * g / (4.0 * cos_i) if ok else 0.0
+    v0 = P[s, C1] * fresnel_conductor1(ch, P[s, C3], P[s, C4]) * m
+    v1 = P[s, C1 + 1] * fresnel_conductor1(ch, P[s, C3 + 1], P[s, C4 + 1]) * m
+    v2 = P[s, C1 + 2] * fresnel_conductor1(ch, P[s, C3 + 2], P[s, C4 + 2]) * m
+    return v0, v1, v2, (d * g1i / (4.0 * cos_i) if ok else 0.0)
+
+
+@nb.njit(**JIT)
+def _plastic_eval(P, T, s, wi, wo):
+    c = wo[2] if wi[2] > 0 and wo[2] > 0 else 0.0
+    eta = P[s, ETA]
+    fi, fo = fresnel1(wi[2], eta)[0], fresnel1(wo[2], eta)[0]
+    pd = _plastic_probs(P, T, s, wi[2])[1]
+    m = (1.0 - fi) * (1.0 - fo) * c / (math.pi * eta * eta)
+    return _diffuse_base(P, s, 0) * m, _diffuse_base(P, s, 1) * m, _diffuse_base(P, s, 2) * m, pd * c * INV_PI
+
+
+@nb.njit(**JIT)
+def _roughplastic_eval(P, T, s, wi, wo):
+    if not (wi[2] > 0 and wo[2] > 0):
+        return 0.0, 0.0, 0.0, 0.0
+    c = wo[2]
+    au, eta = P[s, AU], P[s, ETA]
+    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, au, au)
+    spec = fresnel1(wi[0] * hx + wi[1] * hy + wi[2] * hz, eta)[0] * d * g / (4.0 * cos_i)
+    m = _transmittance(T, s, wi[2]) * _transmittance(T, s, wo[2]) * c / (math.pi * eta * eta)
+    ps, pd = _plastic_probs(P, T, s, wi[2])
+    return (P[s, C2] * spec + _diffuse_base(P, s, 0) * m, P[s, C2 + 1] * spec + _diffuse_base(P, s, 1) * m,
+            P[s, C2 + 2] * spec + _diffuse_base(P, s, 2) * m, ps * d * g1i / (4.0 * cos_i) + pd * c * INV_PI)
+
+
+@nb.njit(**JIT)
+def _phong_eval(P, s, wi, wo):
+    """The course's Phong mixture, lit from both sides: the frame follows wi."""
+    side = -1.0 if wi[2] < 0 else 1.0
+    wiz, woz = wi[2] * side, wo[2] * side
+    c = woz if woz > 0 else 0.0
+    e = P[s, EXPONENT]
+    cr = min(max(-wi[0] * wo[0] - wi[1] * wo[1] + wiz * woz, 0.0), 1.0) ** e
+    lobe = (e + 2.0) / (2.0 * math.pi) * cr
+    p0, p1, _, _ = _phong_probs(P, s)
+    lobe_pdf = (e + 1.0) / (2.0 * math.pi) * cr if woz > 0 else 0.0
+    return (P[s, C1] * c * INV_PI + P[s, C2] * lobe * c, P[s, C1 + 1] * c * INV_PI + P[s, C2 + 1] * lobe * c,
+            P[s, C1 + 2] * c * INV_PI + P[s, C2 + 2] * lobe * c, p0 * c * INV_PI + p1 * lobe_pdf)
+
+
+@nb.njit(**JIT, inline="always")
+def bsdf_eval(P, T, s, wi, wo):
+    """f(wi, wo) cos(theta_o) (three channels) and the pdf with which bsdf_sample picks wo (delta lobes
+    excluded), for slot s; a TwoSided BSDF mirrors the frame to wi's side first. (Inlined: a switch over
+    per-kind functions, so a call costs one small function.)"""
+    if P[s, TWOSIDED] != 0 and wi[2] < 0:
+        wi = (wi[0], wi[1], -wi[2])
+        wo = (wo[0], wo[1], -wo[2])
+    k = P[s, KIND]
+    if k == DIFFUSE:
+        return _diffuse_eval(P, s, wi, wo)
+    if k == ROUGHCONDUCTOR:
+        return _roughconductor_eval(P, s, wi, wo)
+    if k == PLASTIC:
+        return _plastic_eval(P, T, s, wi, wo)
+    if k == ROUGHPLASTIC:
+        return _roughplastic_eval(P, T, s, wi, wo)
+    if k == PHONG:
+        return _phong_eval(P, s, wi, wo)
+    return 0.0, 0.0, 0.0, 0.0  # dielectric, conductor (delta lobes only), black
+
+
+@nb.njit(**JIT, inline="always")
+def _diffuse_sample(P, s, wi, u20, u21):
+    wo = cosine_hemisphere3(u20, u21)
+    ok = 1.0 if wi[2] > 0 and wo[2] > 0 else 0.0
+    return wo, (P[s, C1] * ok, P[s, C1 + 1] * ok, P[s, C1 + 2] * ok), wo[2] * INV_PI * ok, False, 1.0
+
+
+@nb.njit(**JIT)
+def _dielectric_sample(P, s, wi, u1):
+    wx, wy, wz = wi
+    f, cos_t, eta_it, eta_ti = fresnel1(wz, P[s, ETA])
+    if u1 <= f:
+        return (-wx, -wy, wz), (P[s, C1], P[s, C1 + 1], P[s, C1 + 2]), f, True, 1.0
+    # radiance is scaled by (eta_t / eta_i)^-2 when refracted (Veach's non-symmetric scattering)
+    e2 = eta_ti * eta_ti
+    return ((-eta_ti * wx, -eta_ti * wy, cos_t), (P[s, C2] * e2, P[s, C2 + 1] * e2, P[s, C2 + 2] * e2),
+            1.0 - f, True, eta_it)
+
+
+@nb.njit(**JIT)
+def _conductor_sample(P, s, wi):
+    wx, wy, wz = wi
+    ok = 1.0 if wz > 0 else 0.0
+    return ((-wx, -wy, wz), (P[s, C1] * fresnel_conductor1(wz, P[s, C3], P[s, C4]) * ok,
+                             P[s, C1 + 1] * fresnel_conductor1(wz, P[s, C3 + 1], P[s, C4 + 1]) * ok,
+                             P[s, C1 + 2] * fresnel_conductor1(wz, P[s, C3 + 2], P[s, C4 + 2]) * ok),
+            ok, True, 1.0)
+
+
+@nb.njit(**JIT)
+def _roughconductor_sample(P, s, wi, u20, u21):
+    wx, wy, wz = wi
+    au, av = P[s, AU], P[s, AV]
+    mx, my, mz = ggx_sample_visible1(wx, wy, wz, u20, u21, au, av)
+    wo = _reflect(wx, wy, wz, mx, my, mz)
+    ok = 1.0 if wz > 0 and wo[2] > 0 else 0.0
+    g = ggx_g11(wo[0], wo[1], wo[2], mx, my, mz, au, av) * ok
+    cm = wx * mx + wy * my + wz * mz
+    pdf = _roughconductor_eval(P, s, wi, wo)[3]
+    return (wo, (P[s, C1] * fresnel_conductor1(cm, P[s, C3], P[s, C4]) * g,
+                 P[s, C1 + 1] * fresnel_conductor1(cm, P[s, C3 + 1], P[s, C4 + 1]) * g,
+                 P[s, C1 + 2] * fresnel_conductor1(cm, P[s, C3 + 2], P[s, C4 + 2]) * g), pdf, False, 1.0)
+
+
+@nb.njit(**JIT)
+def _plastic_sample(P, T, s, wi, u1, u20, u21):
+    wx, wy, wz = wi
+    ok = 1.0 if wz > 0 else 0.0
+    fi = fresnel1(wz, P[s, ETA])[0]
+    ps = _plastic_probs(P, T, s, wz)[0]
+    if u1 < ps:
+        m = fi / ps * ok
+        return (-wx, -wy, wz), (P[s, C2] * m, P[s, C2 + 1] * m, P[s, C2 + 2] * m), ps, True, 1.0
+    wo = cosine_hemisphere3(u20, u21)
+    v0, v1, v2, pdf = _plastic_eval(P, T, s, wi, wo)
+    m = ok / pdf if pdf > 0 else 0.0
+    return wo, (v0 * m, v1 * m, v2 * m), pdf, False, 1.0
+
+
+@nb.njit(**JIT)
+def _roughplastic_sample(P, T, s, wi, u1, u20, u21):
+    wx, wy, wz = wi
+    ps = _plastic_probs(P, T, s, wz)[0]
+    if u1 < ps:
+        au = P[s, AU]
+        mx, my, mz = (ggx_sample_visible1(wx, wy, wz, u20, u21, au, au) if wz > 0 else
+                      ggx_sample_visible1(0.0, 0.0, 1.0, u20, u21, au, au))
+        wo = _reflect(wx, wy, wz, mx, my, mz)
+    else:
+        wo = cosine_hemisphere3(u20, u21)
+    v0, v1, v2, pdf = _roughplastic_eval(P, T, s, wi, wo)
+    m = 1.0 / pdf if pdf > 0 else 0.0
+    return wo, (v0 * m, v1 * m, v2 * m), pdf, False, 1.0
+
+
+@nb.njit(**JIT)
+def _phong_sample(P, s, wi, u1, u20, u21):
+    """The course's Phong mixture: a lobe picked by its mean colour, lit from both sides."""
+    side = -1.0 if wi[2] < 0 else 1.0
+    wf = (wi[0], wi[1], wi[2] * side)
+    p0, p1, p2, p3 = _phong_probs(P, s)
+    lobe = (u1 >= p0) + (u1 >= p0 + p1) + (u1 >= p0 + p1 + p2)
+    r = (-wf[0], -wf[1], wf[2])
+    if lobe == 0:
+        wo = cosine_hemisphere3(u20, u21)
+    elif lobe == 1:  # glossy: cos(alpha) = u^(1 / (e + 1)) about the mirror direction
+        ca = u20 ** (1.0 / (P[s, EXPONENT] + 1.0))
+        sa = math.sqrt(max(0.0, 1.0 - ca * ca))
+        phi = 2.0 * math.pi * u21
+        ts, tt = frame3(r[0], r[1], r[2])
+        wo = to_world3(sa * math.cos(phi), sa * math.sin(phi), ca, ts, tt, r[0], r[1], r[2])
+    elif lobe == 2:
+        wo = r
+    else:
+        eta = P[s, ETA] if side > 0 else 1.0 / max(P[s, ETA], 1e-12)
+        cos_t2 = 1.0 - (1.0 - wf[2] * wf[2]) / (eta * eta)
+        wo = (-wf[0] / eta, -wf[1] / eta, -math.sqrt(cos_t2)) if cos_t2 > 0 else r  # TIR reflects
+    on = 1.0 if p0 + p1 + p2 + p3 > 0 else 0.0
+    wo_out = (wo[0], wo[1], wo[2] * side)
+    if lobe >= 2:
+        pl = p2 if lobe == 2 else p3
+        c = C3 if lobe == 2 else C4
+        m = on / max(pl, 1e-300)
+        return wo_out, (P[s, c] * m, P[s, c + 1] * m, P[s, c + 2] * m), pl, True, 1.0
+    v0, v1, v2, pdf = _phong_eval(P, s, wf, wo)
+    m = on / pdf if pdf > 0 else 0.0
+    return wo_out, (v0 * m, v1 * m, v2 * m), pdf, False, 1.0
+
+
+@nb.njit(**JIT, inline="always")
+def bsdf_sample(P, T, s, wi, u1, u20, u21):
+    """Sample wo for slot s from wi: (wo, weight = f cos / pdf (0 where nothing was sampled or not finite), pdf,
+    delta (a specular lobe was picked), eta (relative index crossed, 1 for reflection)). Inlined, as bsdf_eval."""
+    flip = P[s, TWOSIDED] != 0 and wi[2] < 0
+    if flip:
+        wi = (wi[0], wi[1], -wi[2])
+    k = P[s, KIND]
+    if k == DIFFUSE:
+        wo, w, pdf, delta, eta = _diffuse_sample(P, s, wi, u20, u21)
+    elif k == DIELECTRIC:
+        wo, w, pdf, delta, eta = _dielectric_sample(P, s, wi, u1)
+    elif k == CONDUCTOR:
+        wo, w, pdf, delta, eta = _conductor_sample(P, s, wi)
+    elif k == ROUGHCONDUCTOR:
+        wo, w, pdf, delta, eta = _roughconductor_sample(P, s, wi, u20, u21)
+    elif k == PLASTIC:
+        wo, w, pdf, delta, eta = _plastic_sample(P, T, s, wi, u1, u20, u21)
+    elif k == ROUGHPLASTIC:
+        wo, w, pdf, delta, eta = _roughplastic_sample(P, T, s, wi, u1, u20, u21)
+    elif k == PHONG:
+        wo, w, pdf, delta, eta = _phong_sample(P, s, wi, u1, u20, u21)
+    else:
+        wo, w, pdf, delta, eta = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False, 1.0
+    if flip:
+        wo = (wo[0], wo[1], -wo[2])
+    if not (math.isfinite(w[0]) and math.isfinite(w[1]) and math.isfinite(w[2])):
+        w = (0.0, 0.0, 0.0)
+    return wo, w, pdf, delta, eta
+
+
+@nb.njit(**JIT)
+def eval_kernel(P, T, slot, wi, wo, value, pdf):
+    """bsdf_eval for every row (NumPy arrays in, outputs written in place)."""
+    for i in range(slot.shape[0]):
+        value[i, 0], value[i, 1], value[i, 2], pdf[i] = bsdf_eval(P, T, slot[i], (wi[i, 0], wi[i, 1], wi[i, 2]),
+                                                                 (wo[i, 0], wo[i, 1], wo[i, 2]))
+
+
+@nb.njit(**JIT)
+def sample_kernel(P, T, slot, wi, u1, u2, wo, weight, pdf, delta, eta):
+    """bsdf_sample for every row (NumPy arrays in, outputs written in place)."""
+    for i in range(slot.shape[0]):
+        o, w, pdf[i], delta[i], eta[i] = bsdf_sample(P, T, slot[i], (wi[i, 0], wi[i, 1], wi[i, 2]), u1[i],
+                                                     u2[i, 0], u2[i, 1])
+        wo[i, 0], wo[i, 1], wo[i, 2] = o
+        weight[i, 0], weight[i, 1], weight[i, 2] = w

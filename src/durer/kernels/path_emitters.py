@@ -1,0 +1,161 @@
+"""The path tracer's emitters as scalar Numba functions: next-event sampling of one emitter from a point, and the
+pdf with which that sampling would have chosen a point found by a BSDF-sampled ray. Emitters are packed by
+rendering/emitters.py (which documents the models): per emitter a kind, a radiance and a row of parameters; the
+triangles of mesh emitters are concatenated with one area cdf per emitter. An environment map is sampled in NumPy
+before the kernels run (its draws arrive as arrays)."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from .layout import JIT
+from .path_warps import frame3, to_world3, uniform_cone3, uniform_cone_pdf, uniform_sphere3
+
+AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP = range(6)
+# parameter columns: spheres centre x y z, radius, flip; points position x y z, attenuation a b c; directional
+# lights direction x y z; meshes area, first triangle, triangle count, first cdf entry
+CENTER, RADIUS, SPHERE_FLIP = 0, 3, 4
+POSITION, ATTENUATION = 0, 3
+DIRECTION = 0
+AREA, FIRST_TRI, TRI_COUNT, FIRST_CDF = 0, 1, 2, 3
+PARAMS = 6
+INSIDE_SLACK = 1.0 + 1e-9  # a point this close to a sphere's surface counts as inside (sampled by area)
+
+
+@nb.njit(**JIT, inline="always")
+def _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1):
+    """A point uniform by area on mesh emitter e: (point, normal)."""
+    first, count, c0 = int(F[e, FIRST_TRI]), int(F[e, TRI_COUNT]), int(F[e, FIRST_CDF])
+    lo, hi = 0, count  # the last j with cdf[j] <= u0 (NumPy's searchsorted(side="right") - 1)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if tri_cdf[c0 + mid] <= u0:
+            lo = mid
+        else:
+            hi = mid
+    j = lo
+    a, b = tri_cdf[c0 + j], tri_cdf[c0 + j + 1]
+    u0 = min(max((u0 - a) / max(b - a, 1e-300), 0.0), 1.0 - 1e-16)
+    s = math.sqrt(u0)
+    b1, b2 = 1.0 - s, u1 * s
+    b0 = 1.0 - b1 - b2
+    t = first + j
+    return ((b0 * tri_v[t, 0] + b1 * tri_v[t, 3] + b2 * tri_v[t, 6], b0 * tri_v[t, 1] + b1 * tri_v[t, 4] +
+             b2 * tri_v[t, 7], b0 * tri_v[t, 2] + b1 * tri_v[t, 5] + b2 * tri_v[t, 8]),
+            (tri_n[t, 0], tri_n[t, 1], tri_n[t, 2]))
+
+
+@nb.njit(**JIT, inline="always")
+def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env_d, env_pdf, env_w, row, e, px, py, pz, u0, u1):
+    """Sample emitter e from point p: (unit direction, distance (inf at infinity), radiance / pdf (0 where the
+    sample is invalid), solid-angle pdf (inf for delta lights)). `row` indexes the NumPy environment-map draws."""
+    k = K[e]
+    if k == POINT:
+        tx, ty, tz = F[e, POSITION] - px, F[e, POSITION + 1] - py, F[e, POSITION + 2] - pz
+        dist = math.sqrt(tx * tx + ty * ty + tz * tz)
+        att = F[e, ATTENUATION] + F[e, ATTENUATION + 1] * dist + F[e, ATTENUATION + 2] * dist * dist
+        return (tx / dist, ty / dist, tz / dist), dist, (R[e, 0] / att, R[e, 1] / att, R[e, 2] / att), math.inf
+    if k == DIRECTIONAL:
+        return ((-F[e, DIRECTION], -F[e, DIRECTION + 1], -F[e, DIRECTION + 2]), math.inf,
+                (R[e, 0], R[e, 1], R[e, 2]), math.inf)
+    if k == ENVMAP:
+        return ((env_d[row, 0], env_d[row, 1], env_d[row, 2]), math.inf,
+                (env_w[row, 0], env_w[row, 1], env_w[row, 2]), env_pdf[row])
+    if k == ENVIRONMENT:
+        s = 4.0 * math.pi
+        return uniform_sphere3(u0, u1), math.inf, (R[e, 0] * s, R[e, 1] * s, R[e, 2] * s), 1.0 / s
+    inside = False
+    if k == AREA_MESH:
+        y, nrm = _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1)
+        area_pdf = 1.0 / F[e, AREA]
+    else:  # AREA_SPHERE: by the solid angle of its cone from outside, uniformly by area from inside
+        cx, cy, cz, r = F[e, CENTER], F[e, CENTER + 1], F[e, CENTER + 2], F[e, RADIUS]
+        tx, ty, tz = cx - px, cy - py, cz - pz
+        dc = math.sqrt(tx * tx + ty * ty + tz * tz)
+        inside = dc <= r * INSIDE_SLACK
+        if inside:
+            q = uniform_sphere3(u0, u1)
+            y = (cx + r * q[0], cy + r * q[1], cz + r * q[2])
+            area_pdf = 1.0 / (4.0 * math.pi * r * r)
+        else:
+            inv = 1.0 / max(dc, 1e-300)
+            ax, ay, az = tx * inv, ty * inv, tz * inv
+            cos_max = math.sqrt(1.0 - min((r * inv) ** 2, 1.0))
+            s, t = frame3(ax, ay, az)
+            lx, ly, lz = uniform_cone3(u0, u1, cos_max)
+            dx, dy, dz = to_world3(lx, ly, lz, s, t, ax, ay, az)
+            # the nearest intersection of p + x d with the sphere (the tangent ray when rounding misses it)
+            b = dx * tx + dy * ty + dz * tz
+            x = b - math.sqrt(max(b * b - (dc * dc - r * r), 0.0))
+            y = (px + x * dx, py + x * dy, pz + x * dz)
+            area_pdf = uniform_cone_pdf(cos_max)
+        sign = -1.0 if F[e, SPHERE_FLIP] != 0 else 1.0
+        nrm = ((y[0] - cx) / r * sign, (y[1] - cy) / r * sign, (y[2] - cz) / r * sign)
+    tx, ty, tz = y[0] - px, y[1] - py, y[2] - pz
+    dist = math.sqrt(tx * tx + ty * ty + tz * tz)
+    inv = 1.0 / max(dist, 1e-300)
+    d = (tx * inv, ty * inv, tz * inv)
+    cos_l = -(d[0] * nrm[0] + d[1] * nrm[1] + d[2] * nrm[2])
+    if not (cos_l > 0 and dist > 0):
+        return d, dist, (0.0, 0.0, 0.0), 0.0
+    pdf = area_pdf if k == AREA_SPHERE and not inside else area_pdf * dist * dist / max(cos_l, 1e-300)
+    m = 1.0 / max(pdf, 1e-300)
+    return d, dist, (R[e, 0] * m, R[e, 1] * m, R[e, 2] * m), pdf
+
+
+@nb.njit(**JIT)
+def emitter_pdf(K, F, e, px, py, pz, yx, yy, yz, nx, ny, nz):
+    """Solid-angle pdf with which emitter_sample(e) from p would have chosen the point y (emitting normal n) of an
+    area emitter; the constant environment's for directions. (Environment maps: rendering/envmap.py.)"""
+    k = K[e]
+    if k == ENVIRONMENT:
+        return 1.0 / (4.0 * math.pi)
+    if k != AREA_MESH and k != AREA_SPHERE:
+        return 0.0
+    tx, ty, tz = yx - px, yy - py, yz - pz
+    dist2 = tx * tx + ty * ty + tz * tz
+    cos_l = abs(tx * nx + ty * ny + tz * nz) / math.sqrt(max(dist2, 1e-300))
+    if k == AREA_MESH:
+        return dist2 / max(F[e, AREA] * cos_l, 1e-300)
+    r = F[e, RADIUS]
+    cx, cy, cz = F[e, CENTER] - px, F[e, CENTER + 1] - py, F[e, CENTER + 2] - pz
+    dc = math.sqrt(cx * cx + cy * cy + cz * cz)
+    if dc <= r * INSIDE_SLACK:
+        return dist2 / max(4.0 * math.pi * r * r * cos_l, 1e-300)
+    return uniform_cone_pdf(math.sqrt(1.0 - min((r / max(dc, 1e-300)) ** 2, 1.0)))
+
+
+@nb.njit(**JIT, inline="always")
+def pick_sample(lights, env, row, u_pick, u0, u1, px, py, pz):
+    """Next-event estimation from p: an emitter picked uniformly by u_pick, then sampled by (u0, u1); the weight
+    and pdf include the pick (weight times the count, finite pdfs divided by it). lights and env as in
+    kernels/path_bounce.shade_bounce."""
+    K, R, F, tri_v, tri_n, tri_cdf, _, _ = lights
+    env_d, env_pdf, env_w = env
+    count = K.shape[0]
+    e = min(int(u_pick * count), count - 1)
+    d, dist, w, pdf = emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env_d, env_pdf, env_w, row, e, px, py, pz,
+                                     u0, u1)
+    if not math.isinf(pdf):
+        pdf /= count
+    return d, dist, (w[0] * count, w[1] * count, w[2] * count), pdf
+
+
+@nb.njit(**JIT)
+def sample_lights_kernel(p, u_pick, u, lights, env, d, dist, w, pdf):
+    """pick_sample for every point p[i] (NumPy arrays in, outputs written in place)."""
+    for i in range(p.shape[0]):
+        di, dist[i], wi, pdf[i] = pick_sample(lights, env, i, u_pick[i], u[i, 0], u[i, 1], p[i, 0], p[i, 1],
+                                              p[i, 2])
+        d[i, 0], d[i, 1], d[i, 2] = di
+        w[i, 0], w[i, 1], w[i, 2] = wi
+
+
+@nb.njit(**JIT)
+def light_pdf_kernel(em, p, y, normal, K, F, out):
+    """out[i] = emitter_pdf of emitter em[i] from p[i] to y[i], divided by the emitter count (the pick)."""
+    for i in range(em.shape[0]):
+        out[i] = emitter_pdf(K, F, em[i], p[i, 0], p[i, 1], p[i, 2], y[i, 0], y[i, 1], y[i, 2], normal[i, 0],
+                             normal[i, 1], normal[i, 2]) / K.shape[0]

@@ -1,0 +1,38 @@
+"""kernels/surface.hit_surfaces (the path tracer's hit points, normals and material slots in one pass) against
+accel/hits' NumPy definitions, on triangles, a mesh placed twice (instances), a squashed sphere and a plane."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from durer import Group, Plane, Scene, Sphere, Transform, TriangleMesh
+from durer.accel.bvh import BVHAccelerator
+from durer.accel.compile import compile_scene
+from durer.accel.hits import geometric_normals, hit_materials
+from durer.kernels.surface import hit_surfaces
+from durer.scene import transforms as tf
+from durer.scene.cameras import OrthographicCamera
+
+
+def test_hit_surfaces_match_the_numpy_definitions():
+    rng = np.random.default_rng(4)
+    mesh = TriangleMesh(rng.normal(size=(30, 3)), rng.integers(0, 30, size=(40, 3)), 2)
+    group = Group([Plane((0, 1, 0), -2.0, 0),
+                   Transform(tf.compose(tf.translate((0.5, 0, 0)), tf.scale((1, 2, 0.5))), Sphere((0, 0, 0), 1, 1)),
+                   Transform(tf.translate((-3, 0, 0)), mesh), Transform(tf.rotate((0, 1, 0), 40), mesh)])
+    cs = compile_scene(Scene(camera=OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 5), group=group))
+    assert len(cs.instance_mesh) == 2  # the mesh placed twice is stored once
+    o = rng.uniform(-6, 6, size=(4000, 3))
+    d = rng.normal(size=(4000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    hits = BVHAccelerator(cs).closest_hit(o, d)
+    assert {1, 2, 3} <= set(np.unique(hits.kind)) and (hits.kind == 0).any()  # triangles, spheres, planes, misses
+    flat = cs.flat
+    p, ng, slot = np.empty((4000, 3)), np.empty((4000, 3)), np.empty(4000, np.int64)
+    hit_surfaces(o, d, hits.t, hits.kind, hits.prim, flat.triangles.reshape(-1, 3, 3), flat.triangle_material,
+                 flat.sphere_world_to_object, flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material,
+                 flat.plane_normal, flat.plane_material, p, ng, slot, 0, 4000)
+    expect_p = o + np.where(hits.hit, hits.t, 0.0)[:, None] * d
+    np.testing.assert_allclose(p, expect_p, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ng, geometric_normals(cs, hits, expect_p), rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(slot, hit_materials(cs, hits))
