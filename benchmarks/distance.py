@@ -167,7 +167,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--meshes", type=Path, default=ROOT.parent / "shared" / "meshes")
     ap.add_argument("--points", type=int, default=1_000_000, help="points around the bunny")
-    ap.add_argument("--sub-points", type=int, default=20_000, help="points around the 1.1M-triangle bunny")
+    ap.add_argument("--sub-points", type=int, default=1_000_000, help="points around the 1.1M-triangle bunny")
     ap.add_argument("--quick", action="store_true", help="100k points, bunny only")
     ap.add_argument("--no-bunny", action="store_true", help="only the 1.1M-triangle bunny")
     ap.add_argument("--occupancy", type=int, metavar="REPEAT", default=0,
