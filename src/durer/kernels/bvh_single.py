@@ -11,7 +11,12 @@ import numba as nb
 import numpy as np
 
 from .intersect import intersect_plane, ray_shear, sphere_hit_in_object_space, watertight_triangle
-from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, SPHERE, TRIANGLE, WIDTH, leaf_range
+from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, SPHERE, TRIANGLE, leaf_range
+
+# unsigned index constants of the node test: near row + far row of each axis, node size, lane steps
+_UX, _UY, _UZ = np.uint64(LO_X + HI_X), np.uint64(LO_Y + HI_Y), np.uint64(LO_Z + HI_Z)
+_UNODE = np.uint64(NODE_FLOATS)
+_U1, _U2, _U3 = np.uint64(1), np.uint64(2), np.uint64(3)
 
 
 @nb.njit(**JIT, inline="always")
@@ -37,44 +42,50 @@ def ray_setup(ox, oy, oz, dx, dy, dz):
 
 
 @nb.njit(**JIT, inline="always")
-def _lane(bounds, base, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi):
-    """Entry distance into the box at flat offset `base` (a lane of a node), or inf if it misses [t_lo, t_hi].
-    The near plane of each slab is picked by the direction's sign, so no min/max per slab is needed."""
-    tn = t_lo
-    tf = t_hi
-    a = (bounds[base + nrx] - ox) * idx
-    b = (bounds[base + (LO_X + HI_X) - nrx] - ox) * idx
-    tn = a if a > tn else tn
-    tf = b if b < tf else tf
-    a = (bounds[base + nry] - oy) * idy
-    b = (bounds[base + (LO_Y + HI_Y) - nry] - oy) * idy
-    tn = a if a > tn else tn
-    tf = b if b < tf else tf
-    a = (bounds[base + nrz] - oz) * idz
-    b = (bounds[base + (LO_Z + HI_Z) - nrz] - oz) * idz
-    tn = a if a > tn else tn
-    tf = b if b < tf else tf
+def _slab(bounds, near, far, o, inv, tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3):
+    """One axis of the slab test of a node's 4 lanes: the entry (tn) and exit (tf) distances narrowed by the
+    planes at flat offsets near..near+3 and far..far+3 (uint64: an unsigned index needs no wraparound select, so
+    the four loads are consecutive and LLVM's SLP vectoriser turns the lanes into 4-wide float64 operations).
+    The near plane of each slab is picked by the direction's sign, so no min/max of the two planes is needed."""
+    a0 = (np.float64(bounds[near]) - o) * inv
+    a1 = (np.float64(bounds[near + _U1]) - o) * inv
+    a2 = (np.float64(bounds[near + _U2]) - o) * inv
+    a3 = (np.float64(bounds[near + _U3]) - o) * inv
+    b0 = (np.float64(bounds[far]) - o) * inv
+    b1 = (np.float64(bounds[far + _U1]) - o) * inv
+    b2 = (np.float64(bounds[far + _U2]) - o) * inv
+    b3 = (np.float64(bounds[far + _U3]) - o) * inv
+    return (a0 if a0 > tn0 else tn0, a1 if a1 > tn1 else tn1, a2 if a2 > tn2 else tn2, a3 if a3 > tn3 else tn3,
+            b0 if b0 < tf0 else tf0, b1 if b1 < tf1 else tf1, b2 if b2 < tf2 else tf2, b3 if b3 < tf3 else tf3)
+
+
+@nb.njit(**JIT, inline="always")
+def _entry(tn, tf):
+    """The entry distance tn of a lane, or inf when the ray misses it (tn beyond tf widened by FAR_WIDEN)."""
     return tn if tn <= tf + abs(tf) * FAR_WIDEN else np.inf
 
 
 @nb.njit(**JIT, inline="always")
-def node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi, dist):
-    """dist[lane] = entry distance of the ray into child box `lane` of `node`, inf if it misses [t_lo, t_hi].
-
-    bounds is the flat float32 node array (24 floats a node: rows lo x, y, z, hi x, y, z of 4 lanes each).
-    Empty lanes hold a box at +infinity and so always miss. (A min/max form with constant indices, written
-    for LLVM's SLP vectoriser, was not vectorised and measured slower.)
-    """
-    base = node * NODE_FLOATS
-    for lane in range(WIDTH):
-        dist[lane] = _lane(bounds, base + lane, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi)
+def node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi):
+    """The entry distances (d0, d1, d2, d3) of the ray into the 4 child boxes of `node`, inf for a box it misses
+    within [t_lo, t_hi]. bounds is the flat float32 node array (24 floats a node: rows lo x, y, z, hi x, y, z of
+    4 lanes each); empty lanes hold a box at +infinity and so always miss. Straight-line scalars rather than a
+    loop into an array: no store and reload, and the lanes vectorise."""
+    base = np.uint64(node) * _UNODE
+    rx, ry, rz = np.uint64(nrx), np.uint64(nry), np.uint64(nrz)
+    tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3 = _slab(bounds, base + rx, base + (_UX - rx), ox, idx,
+                                                   t_lo, t_lo, t_lo, t_lo, t_hi, t_hi, t_hi, t_hi)
+    tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3 = _slab(bounds, base + ry, base + (_UY - ry), oy, idy,
+                                                   tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3)
+    tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3 = _slab(bounds, base + rz, base + (_UZ - rz), oz, idz,
+                                                   tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3)
+    return _entry(tn0, tf0), _entry(tn1, tf1), _entry(tn2, tf2), _entry(tn3, tf3)
 
 
 @nb.njit(**JIT, inline="always")
-def push_nearest_first(dist, codes, stack_node, stack_t, sp):
-    """Order the lanes a node visit hit by entry distance (a 5-exchange sorting network); push all but the
-    nearest, farthest first, and return (nearest child code or 0 if none was hit, new stack pointer)."""
-    d0, d1, d2, d3 = dist[0], dist[1], dist[2], dist[3]
+def sort_lanes(d0, d1, d2, d3):
+    """The 4 lanes' entry distances in ascending order, with their lanes: (d0, d1, d2, d3, l0, l1, l2, l3), by a
+    5-exchange sorting network on scalars."""
     l0, l1, l2, l3 = 0, 1, 2, 3
     if d1 < d0:
         d0, d1, l0, l1 = d1, d0, l1, l0
@@ -86,21 +97,35 @@ def push_nearest_first(dist, codes, stack_node, stack_t, sp):
         d1, d3, l1, l3 = d3, d1, l3, l1
     if d2 < d1:
         d1, d2, l1, l2 = d2, d1, l2, l1
+    return d0, d1, d2, d3, l0, l1, l2, l3
+
+
+@nb.njit(**JIT, inline="always")
+def push_lanes(child, node, stack_node, stack_t, sp, d1, d2, d3, l1, l2, l3):
+    """Push the children in lanes l3, l2, l1 of `node` (farthest first) with their entry distances, each only
+    if it was hit (d < inf); returns the new stack pointer. Branch-free: every entry is written and the pointer
+    moves by the hits, so the stack needs two spare entries (stack_size_for leaves 8). Straight-line code also
+    lets Numba drop the reference counting of the arrays it is given (with branches it would not)."""
+    stack_node[sp] = child[node, l3]
+    stack_t[sp] = d3
+    sp += np.int64(d3 < np.inf)
+    stack_node[sp] = child[node, l2]
+    stack_t[sp] = d2
+    sp += np.int64(d2 < np.inf)
+    stack_node[sp] = child[node, l1]
+    stack_t[sp] = d1
+    return sp + np.int64(d1 < np.inf)
+
+
+@nb.njit(**JIT, inline="always")
+def push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp):
+    """Order the lanes of `node` a visit hit (entry distances d0..d3, inf for a miss) by entry distance; push all
+    but the nearest, farthest first, and return (nearest child code or 0 if none was hit, new stack pointer).
+    The codes are read as child[node, lane]: a row view child[node] costs a reference count per visit."""
+    d0, d1, d2, d3, l0, l1, l2, l3 = sort_lanes(d0, d1, d2, d3)
     if d0 == np.inf:
         return 0, sp
-    if d3 < np.inf:
-        stack_node[sp] = codes[l3]
-        stack_t[sp] = d3
-        sp += 1
-    if d2 < np.inf:
-        stack_node[sp] = codes[l2]
-        stack_t[sp] = d2
-        sp += 1
-    if d1 < np.inf:
-        stack_node[sp] = codes[l1]
-        stack_t[sp] = d1
-        sp += 1
-    return codes[l0], sp
+    return child[node, l0], push_lanes(child, node, stack_node, stack_t, sp, d1, d2, d3, l1, l2, l3)
 
 
 @nb.njit(**JIT, inline="always")
@@ -127,11 +152,19 @@ def next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy
         node = stack_node[sp]
         if node < 0:
             return node, sp
-        node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi, dist)
-        for lane in range(WIDTH):
-            if dist[lane] < np.inf:
-                stack_node[sp] = child[node, lane]
-                sp += 1
+        d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi)
+        if d0 < np.inf:
+            stack_node[sp] = child[node, 0]
+            sp += 1
+        if d1 < np.inf:
+            stack_node[sp] = child[node, 1]
+            sp += 1
+        if d2 < np.inf:
+            stack_node[sp] = child[node, 2]
+            sp += 1
+        if d3 < np.inf:
+            stack_node[sp] = child[node, 3]
+            sp += 1
     return 0, sp
 
 
@@ -142,8 +175,8 @@ def descend(bounds, child, node, stack_node, stack_t, sp, nrx, nry, nrz, ox, oy,
     nearest child the ray enters within [t_lo, best], pushing the others with their entry distance. Returns (the
     leaf reached, or 0 when the ray enters no child, new stack pointer)."""
     while node >= 0:
-        node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, best, dist)
-        node, sp = push_nearest_first(dist, child[node], stack_node, stack_t, sp)
+        d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, best)
+        node, sp = push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp)
         if node == 0:
             return 0, sp
     return node, sp
@@ -181,8 +214,8 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
     node = root
     while True:
         if node >= 0:
-            node_dists(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, best, dist)
-            nxt, sp = push_nearest_first(dist, child[node], stack_node, stack_t, sp)
+            d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, best)
+            nxt, sp = push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp)
             if nxt != 0:
                 node = nxt
                 continue
