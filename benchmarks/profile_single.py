@@ -30,7 +30,7 @@ from durer.kernels.layout import NODE_FLOATS, leaf_range
 
 
 @nb.njit(cache=False)
-def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts):
+def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts, entered):
     """The closest-hit walk of blas_closest (triangles only), recording visited nodes and tested slots: ray i's
     visits are visits[counts[i, 0] ...] and so on; counts[i] = (visit offset, slot offset, visits, hits per
     visit summed, pops, pops dropped, triangle tests, leaves)."""
@@ -52,7 +52,9 @@ def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts):
                 nv += 1
                 counts[i, 2] += 1
                 d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, 0.0, best)
-                counts[i, 3] += (d0 < np.inf) + (d1 < np.inf) + (d2 < np.inf) + (d3 < np.inf)
+                hit = (d0 < np.inf) + (d1 < np.inf) + (d2 < np.inf) + (d3 < np.inf)
+                counts[i, 3] += hit
+                entered[hit] += 1
                 nxt, sp = push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp)
                 if nxt != 0:
                     node = nxt
@@ -158,14 +160,16 @@ def main() -> None:
     visits = np.empty(n * 200, np.int32)
     slots = np.empty(n * 200, np.int32)
     counts = np.zeros((n, 8), np.int64)
-    nv, ns = record(bounds, child, leaf_tri, o, d, tree.stack_size, visits, slots, counts)
+    entered = np.zeros(5, np.int64)
+    nv, ns = record(bounds, child, leaf_tri, o, d, tree.stack_size, visits, slots, counts, entered)
     t_hi = np.full(n, np.inf)
     c = counts.mean(axis=0)
     print(f"{args.mesh}: {len(child)} nodes, {len(tree.leaf_prim)} leaf slots, depth {tree.depth}, {n} rays")
     print(f"per ray: node visits {c[2]:.2f}, child boxes entered per visit {c[3] / c[2]:.2f}, stack pops {c[4]:.2f}"
           f" (dropped as farther than the hit {c[5]:.2f}), leaves {c[7]:.2f}, triangle tests {c[6]:.2f}")
-    hist = np.bincount(np.minimum(counts[:, 2], 60))
-    print("node visits per ray, quartiles:", np.percentile(counts[:, 2], [25, 50, 75, 99]), "max bin", len(hist))
+    share = ", ".join(f"{k}: {v / entered.sum():.0%}" for k, v in enumerate(entered))
+    print(f"node visits entering k child boxes: {share}; node visits per ray, median "
+          f"{np.median(counts[:, 2]):.0f}, 99th percentile {np.percentile(counts[:, 2], 99):.0f}")
     figures = {
         "kernel": cpu_ns(lambda: kernel(bounds, child, tree.leaf_prim, leaf_tri, o, d, tree.stack_size), n,
                          args.repeat),

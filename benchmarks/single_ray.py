@@ -8,8 +8,8 @@
 262,144 rays from random points around the Stanford bunny to random points on its surface (benchmarks/raycases.py:
 no 16-ray chunk is coherent, so every ray takes the one-ray path), traced by BVHAccelerator.closest_hit and
 any_hit (t_max = inf, and t_max = 0.999 of the closest hit: an unoccluded shadow ray, which walks the whole way)
-on one thread (NUMBA_NUM_THREADS=1 runs the kernel on the calling thread). Prints the median ns per ray of the
-thread's CPU time (time.thread_time) over --repeat calls after a warm-up, and a checksum of the results so two
+on one thread (NUMBA_NUM_THREADS=1 runs the kernel on the calling thread). Prints the median (and least) ns per ray
+of the thread's CPU time (time.thread_time) over --repeat calls after a warm-up, and a checksum of the results so two
 versions can be seen to agree. --mesh picks another mesh from ../shared/meshes (bun_zipper_subdiv2.ply: 1.1M).
 """
 
@@ -28,15 +28,16 @@ from durer.scene.graph import Group, Scene
 from durer.scene.shapes import TriangleMesh
 
 
-def cpu_ns_per_ray(fn, n: int, repeat: int) -> float:
-    """Median CPU time of the calling thread per ray, in ns, over `repeat` calls after one warm-up call."""
+def cpu_ns_per_ray(fn, n: int, repeat: int) -> tuple[float, float]:
+    """Median and least CPU time of the calling thread per ray, in ns, over `repeat` calls after a warm-up call
+    (the least is the steadier figure when other jobs share the machine's caches)."""
     fn()
     times = []
     for _ in range(repeat):
         start = time.thread_time()
         fn()
         times.append(time.thread_time() - start)
-    return float(np.median(times)) / n * 1e9
+    return float(np.median(times)) / n * 1e9, min(times) / n * 1e9
 
 
 def main() -> None:
@@ -61,7 +62,7 @@ def main() -> None:
     finite = np.isfinite(hits.t)
     check = (f"hits={int(finite.sum())} sum_t={hits.t[finite].sum():.9f} prim_sum={int(hits.prim[finite].sum())} "
              f"occluded={int(acc.any_hit(o, d).sum())} shadow_occluded={int(acc.any_hit(o, d, t_max=shadow).sum())}")
-    print(" ".join(f"{k}={v:.0f}ns" for k, v in figures.items()), check)
+    print(" ".join(f"{k}={v[0]:.0f}ns(min {v[1]:.0f})" for k, v in figures.items()), check)
 
 
 if __name__ == "__main__":
