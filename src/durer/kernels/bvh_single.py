@@ -12,11 +12,11 @@ import numpy as np
 
 from .intersect import intersect_plane, ray_shear, sphere_hit_in_object_space, watertight_triangle
 from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, SPHERE, TRIANGLE, leaf_range
+from .simd import entry4
 
-# unsigned index constants of the node test: near row + far row of each axis, node size, lane steps
+# unsigned index constants of the node test: near row + far row of each axis, node size
 _UX, _UY, _UZ = np.uint64(LO_X + HI_X), np.uint64(LO_Y + HI_Y), np.uint64(LO_Z + HI_Z)
 _UNODE = np.uint64(NODE_FLOATS)
-_U1, _U2, _U3 = np.uint64(1), np.uint64(2), np.uint64(3)
 
 
 @nb.njit(**JIT, inline="always")
@@ -42,44 +42,17 @@ def ray_setup(ox, oy, oz, dx, dy, dz):
 
 
 @nb.njit(**JIT, inline="always")
-def _slab(bounds, near, far, o, inv, tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3):
-    """One axis of the slab test of a node's 4 lanes: the entry (tn) and exit (tf) distances narrowed by the
-    planes at flat offsets near..near+3 and far..far+3 (uint64: an unsigned index needs no wraparound select, so
-    the four loads are consecutive and LLVM's SLP vectoriser turns the lanes into 4-wide float64 operations).
-    The near plane of each slab is picked by the direction's sign, so no min/max of the two planes is needed."""
-    a0 = (np.float64(bounds[near]) - o) * inv
-    a1 = (np.float64(bounds[near + _U1]) - o) * inv
-    a2 = (np.float64(bounds[near + _U2]) - o) * inv
-    a3 = (np.float64(bounds[near + _U3]) - o) * inv
-    b0 = (np.float64(bounds[far]) - o) * inv
-    b1 = (np.float64(bounds[far + _U1]) - o) * inv
-    b2 = (np.float64(bounds[far + _U2]) - o) * inv
-    b3 = (np.float64(bounds[far + _U3]) - o) * inv
-    return (a0 if a0 > tn0 else tn0, a1 if a1 > tn1 else tn1, a2 if a2 > tn2 else tn2, a3 if a3 > tn3 else tn3,
-            b0 if b0 < tf0 else tf0, b1 if b1 < tf1 else tf1, b2 if b2 < tf2 else tf2, b3 if b3 < tf3 else tf3)
-
-
-@nb.njit(**JIT, inline="always")
-def _entry(tn, tf):
-    """The entry distance tn of a lane, or inf when the ray misses it (tn beyond tf widened by FAR_WIDEN)."""
-    return tn if tn <= tf + abs(tf) * FAR_WIDEN else np.inf
-
-
-@nb.njit(**JIT, inline="always")
 def node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi):
     """The entry distances (d0, d1, d2, d3) of the ray into the 4 child boxes of `node`, inf for a box it misses
-    within [t_lo, t_hi]. bounds is the flat float32 node array (24 floats a node: rows lo x, y, z, hi x, y, z of
-    4 lanes each); empty lanes hold a box at +infinity and so always miss. Straight-line scalars rather than a
-    loop into an array: no store and reload, and the lanes vectorise."""
+    within [t_lo, t_hi] (its far distance widened by FAR_WIDEN). bounds is the flat float32 node array (24 floats
+    a node: rows lo x, y, z, hi x, y, z of 4 lanes each); the near plane of each slab is picked by the direction's
+    sign (row offsets nrx, nry, nrz from ray_setup), so no min/max of the two planes is needed. Empty lanes hold
+    a box at +infinity and so always miss. The 4 lanes are tested at once in 4-wide vector code (kernels/simd.py);
+    the offsets are unsigned, which spares Numba's negative-index wraparound."""
     base = np.uint64(node) * _UNODE
     rx, ry, rz = np.uint64(nrx), np.uint64(nry), np.uint64(nrz)
-    tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3 = _slab(bounds, base + rx, base + (_UX - rx), ox, idx,
-                                                   t_lo, t_lo, t_lo, t_lo, t_hi, t_hi, t_hi, t_hi)
-    tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3 = _slab(bounds, base + ry, base + (_UY - ry), oy, idy,
-                                                   tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3)
-    tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3 = _slab(bounds, base + rz, base + (_UZ - rz), oz, idz,
-                                                   tn0, tn1, tn2, tn3, tf0, tf1, tf2, tf3)
-    return _entry(tn0, tf0), _entry(tn1, tf1), _entry(tn2, tf2), _entry(tn3, tf3)
+    return entry4(bounds, base + rx, base + (_UX - rx), base + ry, base + (_UY - ry), base + rz, base + (_UZ - rz),
+                  (ox, oy, oz), (idx, idy, idz), t_lo, t_hi, FAR_WIDEN)
 
 
 @nb.njit(**JIT, inline="always")
