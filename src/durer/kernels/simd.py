@@ -64,3 +64,22 @@ def entry4(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, o, in
         return context.make_tuple(builder, signature.return_type, lanes)
 
     return sig, codegen
+
+
+@intrinsic
+def prefetch(typingctx, array, offset):
+    """Ask the cache to fetch element `offset` (uint64) of a 1-D array ahead of its use (llvm.prefetch, read,
+    high locality); never faults, so any offset is allowed."""
+    sig = types.void(array, offset)
+
+    def codegen(context, builder, signature, args):
+        arr, off = args
+        data = cgutils.create_struct_proxy(signature.args[0])(context, builder, value=arr).data
+        ptr = builder.bitcast(builder.gep(data, [off]), ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32]),
+                                            "llvm.prefetch.p0i8")
+        builder.call(fn, [ptr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return sig, codegen
