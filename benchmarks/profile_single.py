@@ -33,7 +33,7 @@ from durer.kernels.layout import NODE_FLOATS, leaf_range
 def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts, entered):
     """The closest-hit walk of blas_closest (triangles only), recording visited nodes and tested slots: ray i's
     visits are visits[counts[i, 0] ...] and so on; counts[i] = (visit offset, slot offset, visits, hits per
-    visit summed, pops, pops dropped, triangle tests, leaves)."""
+    visit summed, pops, pops dropped, triangle tests, leaves); entered[k] counts the visits that entered k boxes."""
     stack_node = np.empty(stack_size, np.int32)
     stack_t = np.empty(stack_size)
     nv = 0
