@@ -222,7 +222,8 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
 
     bounds float32 flat (N*24,), child int32 (N, 4), leaf_tri float64 flat (M*9,). Children are visited
     nearest entry first; the others wait on the stack with their entry distance and are dropped when a closer
-    hit has been found meanwhile. stack_node, stack_t and dist (4,) are the caller's scratch.
+    hit has been found meanwhile. stack_node and stack_t are the caller's scratch; `dist` is no longer used (the node
+    test keeps its 4 distances in registers) and stays only so the callers' argument lists need not change.
     """
     best = t_max
     kind = 0
