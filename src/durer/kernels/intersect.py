@@ -13,6 +13,7 @@ import numba as nb
 import numpy as np
 
 INF = np.inf
+_U3, _U6 = np.uint64(3), np.uint64(6)
 
 
 @nb.njit(cache=True, inline="always")
@@ -94,19 +95,23 @@ def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min,
     hit both), never between. Both sides count; edge-on and degenerate triangles (determinant 0) are missed.
     No fused multiply-add (fastmath is off), which would break that symmetry.
     """
-    az = tri[base + kz] - okz
-    bz = tri[base + 3 + kz] - okz
-    cz = tri[base + 6 + kz] - okz
-    ax = (tri[base + kx] - okx) - sx * az
-    ay = (tri[base + ky] - oky) - sy * az
-    bx = (tri[base + 3 + kx] - okx) - sx * bz
-    by = (tri[base + 3 + ky] - oky) - sy * bz
-    cx = (tri[base + 6 + kx] - okx) - sx * cz
-    cy = (tri[base + 6 + ky] - oky) - sy * cz
+    b = np.uint64(base)  # unsigned offsets: no negative-index wraparound on the loads
+    ux, uy, uz = np.uint64(kx), np.uint64(ky), np.uint64(kz)
+    az = tri[b + uz] - okz
+    bz = tri[b + _U3 + uz] - okz
+    cz = tri[b + _U6 + uz] - okz
+    ax = (tri[b + ux] - okx) - sx * az
+    ay = (tri[b + uy] - oky) - sy * az
+    bx = (tri[b + _U3 + ux] - okx) - sx * bz
+    by = (tri[b + _U3 + uy] - oky) - sy * bz
+    cx = (tri[b + _U6 + ux] - okx) - sx * cz
+    cy = (tri[b + _U6 + uy] - oky) - sy * cz
     e0 = cx * by - cy * bx
     e1 = ax * cy - ay * cx
     e2 = bx * ay - by * ax
-    if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
+    # mixed signs (the ray passes outside): one test of min and max instead of six branches, which mispredict
+    # on incoherent rays
+    if min(e0, min(e1, e2)) < 0.0 and max(e0, max(e1, e2)) > 0.0:
         return INF, 0.0, 0.0
     det = e0 + e1 + e2
     if det == 0.0:
