@@ -1,39 +1,59 @@
-"""kernels/rays.py: splitting and checking ray batches across parallel chunks."""
+"""kernels/rays.py: reading the user's rays band by band, checking them as they are copied."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from durer.kernels.rays import CHUNK, first_problem, n_chunks, split_rays
+from durer.kernels.rays import BAND, band_scratch, check_bands, first_problem, load_band, n_bands
+
+_EYE = np.ascontiguousarray(np.eye(4)[:3])
 
 
-def _split(rays: np.ndarray):
+def _check(rays: np.ndarray, band: int = BAND):
     n = len(rays)
-    o, d = np.empty((n, 3)), np.empty((n, 3))
-    first = np.empty((n_chunks(n), 3), np.int64)
-    split_rays(rays[:, :3], rays[:, 3:], o, d, first)
-    return o, d, first_problem(first)
+    first = np.empty((n_bands(n, band), 3), np.int64)
+    lo, hi = np.broadcast_to(0.0, (n,)), np.broadcast_to(np.inf, (n,))
+    check_bands(rays[:, :3], rays[:, 3:], lo, hi, _EYE, band, first, 0, len(first))
+    return first_problem(first)
 
 
-def test_copies_both_halves_exactly():
-    rays = np.random.default_rng(0).normal(size=(3 * CHUNK + 5, 6))
-    o, d, problem = _split(rays)
-    np.testing.assert_array_equal(o, rays[:, :3])
-    np.testing.assert_array_equal(d, rays[:, 3:])
-    assert o.flags.c_contiguous and d.flags.c_contiguous
-    assert problem == (-1, -1, -1)
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_copies_a_band_exactly_as_float64(dtype):
+    rays = np.random.default_rng(0).normal(size=(3 * BAND + 5, 6)).astype(dtype)
+    t_min = np.random.default_rng(1).uniform(0, 1, len(rays))
+    o, d, lo, hi = band_scratch(BAND)
+    first = np.empty((4, 3), np.int64)
+    r0, m, clean = load_band(rays[:, :3], rays[:, 3:], t_min, np.broadcast_to(np.inf, (len(rays),)), _EYE, False,
+                             3, BAND, o, d, lo, hi, first)
+    assert (r0, m, clean) == (3 * BAND, 5, True) and first[3].tolist() == [-1, -1, -1]
+    np.testing.assert_array_equal(o[:5], rays[3 * BAND:, :3].astype(np.float64))
+    np.testing.assert_array_equal(d[:5], rays[3 * BAND:, 3:].astype(np.float64))
+    np.testing.assert_array_equal(lo[:5], t_min[3 * BAND:])
+    assert (hi[:5] == np.inf).all() and o.dtype == np.float64 and o.flags.c_contiguous
+
+
+def test_moves_rays_into_object_space():
+    rays = np.random.default_rng(2).normal(size=(7, 6))
+    w2o = np.ascontiguousarray(np.random.default_rng(3).normal(size=(3, 4)))
+    o, d, lo, hi = band_scratch(16)
+    first = np.empty((1, 3), np.int64)
+    inf = np.broadcast_to(np.inf, (7,))
+    assert load_band(rays[:, :3], rays[:, 3:], inf, inf, w2o, True, 0, 16, o, d, lo, hi, first) == (0, 7, True)
+    np.testing.assert_allclose(o[:7], rays[:, :3] @ w2o[:, :3].T + w2o[:, 3], rtol=1e-12)
+    np.testing.assert_allclose(d[:7], rays[:, 3:] @ w2o[:, :3].T, rtol=1e-12)
 
 
 @pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
-def test_reports_the_first_bad_ray_and_its_half_across_chunks(value):
-    rays = np.ones((3 * CHUNK, 6))
-    rays[2 * CHUNK + 7, 1] = value      # a later chunk, in the origin
-    rays[CHUNK + 3, 4] = value          # an earlier chunk, in the direction
-    rays[2 * CHUNK + 1, 3:] = 0.0       # zero directions: the first one is reported
-    rays[CHUNK + 9, 3:] = 0.0
-    assert _split(rays)[2] == (CHUNK + 3, 1, CHUNK + 9)
+def test_reports_the_first_bad_ray_and_its_half_across_bands(value):
+    rays = np.ones((3 * BAND, 6))
+    rays[2 * BAND + 7, 1] = value      # a later band, in the origin
+    rays[BAND + 3, 4] = value          # an earlier band, in the direction
+    rays[2 * BAND + 1, 3:] = 0.0       # zero directions: the first one is reported
+    rays[BAND + 9, 3:] = 0.0
+    assert _check(rays) == (BAND + 3, 1, BAND + 9)
+    assert _check(rays.astype(np.float32), band=64) == (BAND + 3, 1, BAND + 9)
 
 
 def test_empty_batch():
-    assert _split(np.zeros((0, 6)))[2] == (-1, -1, -1)
+    assert _check(np.zeros((0, 6))) == (-1, -1, -1)

@@ -20,18 +20,19 @@ import os
 import numba
 import numpy as np
 
+from .accel import batches
+from .accel.batches import RayBatch
 from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH, flat_image_width
 from .accel.distance import DEFAULT_BETA, DEFAULT_ORDER, SIGN_BETA, DistanceIndex
 from .kernels.bvh_trace import image_width
 from .kernels.layout import SPHERE
-from .kernels.rays import first_problem, n_chunks, split_rays
 
 __all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
 
 
 def _numeric_array(name: str, a, shape_tail: tuple[int, ...], keep_float32: bool = False) -> np.ndarray:
     """a as a float64 array (..., *shape_tail), not necessarily contiguous (float32 kept as it is with
-    keep_float32: the ray check converts while it copies); ValueError naming `name` otherwise."""
+    keep_float32: the query kernels read it as it is); ValueError naming `name` otherwise."""
     arr = np.asarray(a)
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
@@ -161,8 +162,9 @@ class RaycastingScene:
         return self._bvh.build_seconds if self._bvh is not None else sum(s.build_seconds for s in self._shapes)
 
     # ------------------------------------------------------------------------------------------------ rays
-    def _rays(self, origins, directions, t_min, t_max):
-        """Validate and flatten: (origins (N,3), directions (N,3), t_min (N,), t_max (N,), leading shape)."""
+    def _rays(self, origins, directions, t_min, t_max) -> RayBatch:
+        """The rays as given (float32 or float64 views (N, 3), any strides: the kernels read and check them as
+        they trace, accel/batches.py), the t range per ray (a scalar as a stride-0 view), the leading shape."""
         if directions is None:
             rays = np.asarray(origins)
             if rays.ndim < 1 or rays.shape[-1] != 6:
@@ -170,42 +172,32 @@ class RaycastingScene:
             rays = _numeric_array("rays", rays, (6,), keep_float32=True)
             lead = rays.shape[:-1]
             rays = rays.reshape(-1, 6)
-            src_o, src_d, names = rays[:, :3], rays[:, 3:], ("rays", "rays")
+            o, d, names = rays[:, :3], rays[:, 3:], ("rays", "rays")
         else:
-            src_o = _numeric_array("origins", origins, (3,), keep_float32=True)
-            src_d = _numeric_array("directions", directions, (3,), keep_float32=True)
-            if src_o.shape != src_d.shape:
-                raise ValueError(f"origins {src_o.shape} and directions {src_d.shape} must have the same shape")
-            lead = src_o.shape[:-1]
-            src_o, src_d, names = src_o.reshape(-1, 3), src_d.reshape(-1, 3), ("origins", "directions")
-        n = src_o.shape[0]
-        o, d = np.empty((n, 3)), np.empty((n, 3))
-        first = np.empty((n_chunks(n), 3), np.int64)
-        split_rays(src_o, src_d, o, d, first)
-        bad, part, zero = first_problem(first)
-        if bad >= 0:
-            raise ValueError(f"{names[part]} contains NaN or infinity (ray {bad})")
-        if zero >= 0:
-            raise ValueError(f"direction {zero} is zero")
+            o = _numeric_array("origins", origins, (3,), keep_float32=True)
+            d = _numeric_array("directions", directions, (3,), keep_float32=True)
+            if o.shape != d.shape:
+                raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
+            lead = o.shape[:-1]
+            o, d, names = o.reshape(-1, 3), d.reshape(-1, 3), ("origins", "directions")
         lo = self._interval("t_min", t_min, lead)
         hi = self._interval("t_max", t_max, lead)
-        return o, d, lo, hi, lead
+        width = image_width(lead) if len(lead) != 1 else flat_image_width(o, d)
+        return RayBatch(o, d, lo, hi, lead, names, width)
 
     @staticmethod
     def _interval(name: str, value, lead) -> np.ndarray:
+        """t_min or t_max per ray, (N,) float64: a scalar as a stride-0 view (nothing allocated)."""
         a = np.asarray(value, dtype=np.float64)
         if np.isnan(a).any():
             raise ValueError(f"{name} contains NaN")
+        if a.ndim == 0:
+            return np.broadcast_to(a, (int(np.prod(lead, dtype=np.int64)),))
         try:
             a = np.broadcast_to(a, lead)
         except ValueError:
             raise ValueError(f"{name} of shape {a.shape} does not broadcast to the rays' shape {lead}") from None
         return np.ascontiguousarray(a).reshape(-1)
-
-    @staticmethod
-    def _width(o, d, lead) -> int:
-        """The kernels' `width`: the image's when the rays are (H, W, ...) or flat rays follow an image's rows."""
-        return image_width(lead) if len(lead) != 1 else flat_image_width(o, d)
 
     def cast_rays(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
         """Closest hit of each ray. origins and directions (..., 3), or one (..., 6) array of both.
@@ -215,27 +207,14 @@ class RaycastingScene:
         triangle's winding; spheres: outward), each shaped like the rays' leading dimensions. Directions need
         not be unit length; t is in units of the direction's length.
         """
-        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
-        tree = self._tree()
-        t, inst, kind, prim, u, v = tree.closest_hit(o, d, lo, hi, self._width(o, d, lead))
-        normals = tree.normals(o, d, t, inst, kind, prim)
-        if any(len(shape.radius) for shape in self._shapes):
-            prim[kind == SPHERE] = 0  # a sphere is primitive 0 of its geometry
-        uv = np.empty((len(t), 2))
-        uv[:, 0], uv[:, 1] = u, v
-        return {
-            "t_hit": t.reshape(lead),
-            "geometry_ids": inst.reshape(lead),
-            "primitive_ids": prim.reshape(lead),
-            "primitive_uvs": uv.reshape(*lead, 2),
-            "primitive_normals": normals.reshape(*lead, 3),
-        }
+        rays = self._rays(origins, directions, t_min, t_max)
+        out = batches.cast(self._tree(), rays)
+        return {key: a.reshape(*rays.lead, *a.shape[1:]) for key, a in out.items()}
 
     def test_occlusions(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> np.ndarray:
         """True for each ray that hits anything with t_min < t < t_max (stops at the first hit found)."""
-        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
-        out = self._tree().any_hit(o, d, lo, hi, self._width(o, d, lead))
-        return out.reshape(lead)
+        rays = self._rays(origins, directions, t_min, t_max)
+        return batches.occluded(self._tree(), rays).reshape(rays.lead)
 
     def count_intersections(self, origins, directions=None, t_min: float = 0.0,
                             t_max: float = np.inf) -> np.ndarray:
@@ -245,9 +224,9 @@ class RaycastingScene:
         vertex hits every triangle there (the test is watertight, so none is skipped), which adds crossings:
         use a random direction.
         """
-        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
-        counts, _ = self._tree().all_hits(o, d, lo, hi, fill=False)
-        return counts.astype(np.int32).reshape(lead)
+        rays = self._rays(origins, directions, t_min, t_max)
+        counts, _ = batches.crossings(self._tree(), rays, fill=False)
+        return counts.astype(np.int32).reshape(rays.lead)
 
     def list_intersections(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
         """Every crossing of every ray, as flat arrays sorted by ray then t (Open3D's layout):
@@ -255,9 +234,9 @@ class RaycastingScene:
         ray_splits (N+1,) so ray i's hits are [ray_splits[i], ray_splits[i+1]); ray_ids, t_hit, geometry_ids,
         primitive_ids, primitive_uvs (M, 2). Rays are numbered in C order of the leading shape.
         """
-        o, d, lo, hi, lead = self._rays(origins, directions, t_min, t_max)
-        n = len(o)
-        counts, out = self._tree().all_hits(o, d, lo, hi, fill=True)
+        rays = self._rays(origins, directions, t_min, t_max)
+        n = len(rays)
+        counts, out = batches.crossings(self._tree(), rays, fill=True)
         ray_ids = np.repeat(np.arange(n, dtype=np.int64), counts)
         order = np.lexsort((out["t"], ray_ids))
         prim = np.where(out["kind"] == SPHERE, 0, out["prim"]).astype(np.int32)

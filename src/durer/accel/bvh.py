@@ -22,16 +22,9 @@ import numpy as np
 
 from ..kernels.bvh_build import build_wide_bvh, item_boxes, leaf_items
 from ..kernels.bvh_trace import any_hit_bvh, closest_hit_bvh
-from ..kernels.instances import (
-    NORMALS_CHUNK,
-    all_hits_instances,
-    any_hit_instances,
-    closest_hit_instances,
-    hit_normals,
-    rays_to_object,
-)
+from ..kernels.instances import any_hit_instances, closest_hit_instances, rays_to_object
 from ..kernels.layout import MAX_LEAF, MISS, SPHERE, TILE, TRIANGLE, leaf_codes, leaf_slots, stack_size_for
-from ..kernels.threads import run_blocks, run_pieces
+from ..kernels.threads import run_blocks
 from .compile import CompiledScene, sphere_bounds
 from .hits import Hits, per_ray
 
@@ -312,40 +305,6 @@ class TwoLevelBVH:
             run_blocks(any_hit_instances, len(o), o, d, t_min, t_max, *self.packed.args, out)
         return out
 
-    def all_hits(self, o, d, t_min, t_max, fill: bool):
-        """Every hit of every ray: counts (N,), and with fill the hits as flat arrays t, inst, kind, prim, u, v
-        (ray by ray, unsorted within a ray)."""
-        n = len(o)
-        counts = np.zeros(n, np.int64)
-        if not self.instances or not n:
-            empty = dict(t=np.zeros(0), inst=np.zeros(0, np.int32), kind=np.zeros(0, np.int8),
-                         prim=np.zeros(0, np.int32), u=np.zeros(0), v=np.zeros(0))
-            return counts, (empty if fill else None)
-        empty_f, empty_i, empty_k = np.zeros(0), np.zeros(0, np.int32), np.zeros(0, np.int8)
-        args = self.packed.args
-        run_blocks(all_hits_instances, n, o, d, t_min, t_max, *args, np.zeros(n, np.int64), empty_f, empty_i,
-                   empty_k, empty_i, empty_f, empty_f, counts)
-        if not fill:
-            return counts, None
-        offsets = np.zeros(n, np.int64)
-        np.cumsum(counts[:-1], out=offsets[1:])
-        total = int(counts.sum())
-        out = dict(t=np.empty(total), inst=np.empty(total, np.int32), kind=np.empty(total, np.int8),
-                   prim=np.empty(total, np.int32), u=np.empty(total), v=np.empty(total))
-        if total:
-            run_blocks(all_hits_instances, n, o, d, t_min, t_max, *args, offsets, out["t"], out["inst"], out["kind"],
-                       out["prim"], out["u"], out["v"], counts)
-        return counts, out
-
-    def normals(self, o, d, t, inst, kind, prim) -> np.ndarray:
-        """Unit world-space normals at the hits (triangles by their winding, spheres outward), 0 on a miss."""
-        out = np.zeros((len(t), 3))
-        if self.instances:
-            p = self.packed
-            run_pieces(hit_normals, -(-len(t) // NORMALS_CHUNK), o, d, t, inst, kind, prim, p.inst_shape,
-                       p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas[4], out)
-        return out
-
 
 # ---------------------------------------------------------------------------------------- the renderer's accelerator
 _PROBE = 16384  # leading rays looked at to find the row length of flat rays (widths up to this)
@@ -353,20 +312,21 @@ _PROBE = 16384  # leading rays looked at to find the row length of flat rays (wi
 
 def flat_image_width(o: np.ndarray, d: np.ndarray) -> int:
     """The width of the image whose rows flat (N, 3) rays follow (a camera's rays reshaped to (N, 3), row by
-    row), so the kernels can trace them in 4 x 4 tiles as they do an (H, W, ...) array; 0 when they do not look
-    like one: the first jump between consecutive rays (4x the first step) must end a row whose length is a
-    multiple of 4 dividing N in whole 4-row bands, and 64 rays spread over the batch must lie as close to the
-    ray one row below as to their neighbour. Only speed depends on the answer: the packet kernels find the
-    same hits in any order (t to the bit)."""
+    row; float32 or float64, any strides), so the kernels can trace them in 4 x 4 tiles as they do an
+    (H, W, ...) array; 0 when they do not look like one: the first jump between consecutive rays (4x the
+    first step) must end a row whose length is a multiple of 4 dividing N in whole 4-row bands, and 64 rays
+    spread over the batch must lie as close to the ray one row below as to their neighbour. Only speed depends
+    on the answer: the packet kernels find the same hits in any order (t to the bit)."""
     n = len(o)
     if n < TILE * TILE * 4:
         return 0
     k = min(n, _PROBE + 1)
-    extent = float(np.ptp(o[:257], axis=0).max())
+    extent = float(np.ptp(o[:257].astype(np.float64), axis=0).max())
     scale = 1.0 / extent if extent > 0.0 else 0.0  # origins count in units of the first rays' spread
 
-    def gap(a, b):
-        return np.abs(o[a] - o[b]).sum(axis=-1) * scale + np.abs(d[a] - d[b]).sum(axis=-1)
+    def gap(a, b):  # in float64 whatever the rays' type (float32 query rays: the same answer as converted ones)
+        o_a, d_a = o[a].astype(np.float64), d[a].astype(np.float64)
+        return np.abs(o_a - o[b]).sum(axis=-1) * scale + np.abs(d_a - d[b]).sum(axis=-1)
 
     base = float(gap(0, 1))
     if not base > 0.0:

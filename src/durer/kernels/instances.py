@@ -20,7 +20,7 @@ RAYS_PER_BLOCK = PACKET * BLOCK  # rays per work item of threads.run_blocks (ser
 
 
 @nb.njit(**JIT, inline="always")
-def _to_object(w2o, ox, oy, oz, dx, dy, dz):
+def to_object(w2o, ox, oy, oz, dx, dy, dz):
     """The ray in an instance's object space (direction not renormalised, so t is unchanged)."""
     m = w2o
     return (m[0, 0] * ox + m[0, 1] * oy + m[0, 2] * oz + m[0, 3],
@@ -37,46 +37,38 @@ def rays_to_object(origins, directions, w2o, out_o, out_d):
     scene of one instance traced by the one-level kernels gets the same t to the bit)."""
     for i in range(origins.shape[0]):
         (out_o[i, 0], out_o[i, 1], out_o[i, 2], out_d[i, 0], out_d[i, 1],
-         out_d[i, 2]) = _to_object(w2o, origins[i, 0], origins[i, 1], origins[i, 2],
-                                   directions[i, 0], directions[i, 1], directions[i, 2])
+         out_d[i, 2]) = to_object(w2o, origins[i, 0], origins[i, 1], origins[i, 2],
+                                  directions[i, 0], directions[i, 1], directions[i, 2])
 
 
-NORMALS_CHUNK = 8192  # rays per work item of hit_normals
-
-
-@nb.njit(**JIT)
-def hit_normals(origins, directions, t, inst, kind, prim, inst_shape, tri_off, tri_normals, inst_w2o, inst_sign,
-                sph_center, out, c0, c1):
-    """Unit world-space normal of each closest hit (zero on a miss). Triangles: the stored object-space normal
-    by the instance's inverse transpose, flipped under a mirror as moved vertices would flip the winding;
-    spheres: outward, from the hit point in object space."""
-    for i in range(c0 * NORMALS_CHUNK, min(t.shape[0], c1 * NORMALS_CHUNK)):  # chunks c0..c1 (threads.run_pieces)
-        k = inst[i]
-        nx = ny = nz = 0.0
-        if kind[i] == TRIANGLE:
-            j = tri_off[inst_shape[k]] + prim[i]
-            ax, ay, az = tri_normals[j, 0], tri_normals[j, 1], tri_normals[j, 2]
-        elif kind[i] == SPHERE:
-            m = inst_w2o[k]
-            px = origins[i, 0] + t[i] * directions[i, 0]
-            py = origins[i, 1] + t[i] * directions[i, 1]
-            pz = origins[i, 2] + t[i] * directions[i, 2]
-            c = prim[i]
-            ax = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3] - sph_center[c, 0]
-            ay = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3] - sph_center[c, 1]
-            az = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3] - sph_center[c, 2]
-        else:
-            out[i, 0] = out[i, 1] = out[i, 2] = 0.0
-            continue
+@nb.njit(**JIT, inline="always")
+def hit_normal(ox, oy, oz, dx, dy, dz, t, k, kind, prim, inst_shape, tri_off, tri_normals, inst_w2o, inst_sign,
+               sph_center):
+    """Unit world-space normal of one closest hit (zero on a miss) of instance k. Triangles: the stored
+    object-space normal by the instance's inverse transpose, flipped under a mirror as moved vertices would flip
+    the winding; spheres: outward, from the hit point in object space."""
+    if kind == TRIANGLE:
+        j = tri_off[inst_shape[k]] + prim
+        ax, ay, az = tri_normals[j, 0], tri_normals[j, 1], tri_normals[j, 2]
+    elif kind == SPHERE:
         m = inst_w2o[k]
-        sign = inst_sign[k] if kind[i] == TRIANGLE else 1.0
-        nx = sign * (m[0, 0] * ax + m[1, 0] * ay + m[2, 0] * az)
-        ny = sign * (m[0, 1] * ax + m[1, 1] * ay + m[2, 1] * az)
-        nz = sign * (m[0, 2] * ax + m[1, 2] * ay + m[2, 2] * az)
-        length = np.sqrt(nx * nx + ny * ny + nz * nz)
-        if length > 0.0:
-            nx, ny, nz = nx / length, ny / length, nz / length
-        out[i, 0], out[i, 1], out[i, 2] = nx, ny, nz
+        px = ox + t * dx
+        py = oy + t * dy
+        pz = oz + t * dz
+        ax = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3] - sph_center[prim, 0]
+        ay = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3] - sph_center[prim, 1]
+        az = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3] - sph_center[prim, 2]
+    else:
+        return 0.0, 0.0, 0.0
+    m = inst_w2o[k]
+    sign = inst_sign[k] if kind == TRIANGLE else 1.0
+    nx = sign * (m[0, 0] * ax + m[1, 0] * ay + m[2, 0] * az)
+    ny = sign * (m[0, 1] * ax + m[1, 1] * ay + m[2, 1] * az)
+    nz = sign * (m[0, 2] * ax + m[1, 2] * ay + m[2, 2] * az)
+    length = np.sqrt(nx * nx + ny * ny + nz * nz)
+    if length > 0.0:
+        nx, ny, nz = nx / length, ny / length, nz / length
+    return nx, ny, nz
 
 
 @nb.njit(**JIT)
@@ -106,7 +98,7 @@ def closest_hit_instances(origins, directions, t_min, t_max,
                 first, end = leaf_range(leaf)
                 for j in range(first, end):
                     k = top_leaf[j]
-                    px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                    px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                     t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
                                                        sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
                                                        lo, best, stack_node, stack_t, dist)
@@ -144,7 +136,7 @@ def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, 
             first, end = leaf_range(leaf)
             for j in range(first, end):
                 k = top_leaf[j]
-                px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                 if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                             px, py, pz, qx, qy, qz, lo, hi, stack_node, dist):
                     hit = True
@@ -183,7 +175,7 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
             first, end = leaf_range(leaf)
             for j in range(first, end):
                 k = top_leaf[j]
-                px, py, pz, qx, qy, qz = _to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                 before = total
                 total = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius,
                                  sph_w2o, px, py, pz, qx, qy, qz, lo, hi, stack_node, dist,

@@ -1,10 +1,13 @@
-"""Ray batches (Numba): split and check the query API's input rays in one parallel pass.
+"""Ray batches of the query API (Numba): the user's rays read as given, one cache-sized band at a time.
 
-`RaycastingScene` takes origins and directions as two (N, 3) arrays or as one (N, 6) array; the traversal
-kernels want two C-contiguous float64 (N, 3) arrays, and every ray must be finite with a non-zero direction.
-NumPy would copy each column block and check each condition in a pass of its own (about a quarter of a query's
-time on a million rays); this does it all in one pass, on every thread (threads.run_pieces: serial nogil chunks
-on a thread pool, not a parallel=True region).
+`RaycastingScene` takes origins and directions as two (..., 3) arrays or one (..., 6) array, float32 or float64,
+with any strides, and t_min / t_max as scalars or per-ray arrays; every ray must be finite with a non-zero
+direction. The traversal kernels want C-contiguous float64 (N, 3) rays and (N,) t ranges. Converting a whole
+batch up front cost ~100 MB of fresh arrays per million rays, whose first touch is expensive (benchmarks/
+README.md, issue 9). Instead each work item copies one band of rays (TILE rows of an image, or BAND rays) into
+small float64 scratch that stays in cache, checking the rays as it copies them, and the query passes
+(kernels/queries.py) trace the scratch and write the user's outputs from it. float32 converts to float64
+exactly, so float32 rays give the results of the same values given in float64, to the bit.
 """
 
 from __future__ import annotations
@@ -12,47 +15,76 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .threads import run_pieces
+from .instances import to_object
+from .layout import JIT, TILE
 
-CHUNK = 8192  # rays per parallel work item
-
-
-def split_rays(src_o, src_d, o, d, first) -> None:
-    """split_checked_rays over all chunks, on every thread."""
-    run_pieces(split_checked_rays, n_chunks(len(src_o)), src_o, src_d, o, d, first)
+BAND = 4096  # rays per work item when the rays are not an image (32 blocks of the one-level kernels)
 
 
-@nb.njit(cache=True, nogil=True)
-def split_checked_rays(src_o, src_d, o, d, first, c0, c1):
-    """o, d = src_o, src_d as float64 for the rays of chunks c0..c1 (src may be strided views, e.g. the two
-    halves of an (N, 6) array). first[c] = (first ray of chunk c with a NaN or infinity, 0 if it is in the
-    origin and 1 if in the direction, first ray of chunk c whose direction is zero), -1 where there is none."""
-    n = src_o.shape[0]
-    for c in range(c0, c1):
-        bad, where, zero = -1, -1, -1
-        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            ox, oy, oz = np.float64(src_o[i, 0]), np.float64(src_o[i, 1]), np.float64(src_o[i, 2])
-            dx, dy, dz = np.float64(src_d[i, 0]), np.float64(src_d[i, 1]), np.float64(src_d[i, 2])
-            o[i, 0], o[i, 1], o[i, 2] = ox, oy, oz
-            d[i, 0], d[i, 1], d[i, 2] = dx, dy, dz
-            if bad < 0:
-                if not (np.isfinite(ox) and np.isfinite(oy) and np.isfinite(oz)):
-                    bad, where = i, 0
-                elif not (np.isfinite(dx) and np.isfinite(dy) and np.isfinite(dz)):
-                    bad, where = i, 1
-            if zero < 0 and dx == 0.0 and dy == 0.0 and dz == 0.0:
-                zero = i
-        first[c, 0], first[c, 1], first[c, 2] = bad, where, zero
+def band_size(width: int) -> int:
+    """Rays per band: TILE rows of an image `width` wide (whole tiles for the packet kernels), else BAND."""
+    return TILE * int(width) if width > 0 else BAND
+
+
+def n_bands(n: int, band: int) -> int:
+    return -(-int(n) // band)
+
+
+@nb.njit(**JIT, inline="always")
+def ray_at(origins, directions, i):
+    """Ray i of two (N, 3) arrays of any float type and strides, as six float64 scalars."""
+    return (np.float64(origins[i, 0]), np.float64(origins[i, 1]), np.float64(origins[i, 2]),
+            np.float64(directions[i, 0]), np.float64(directions[i, 1]), np.float64(directions[i, 2]))
+
+
+@nb.njit(**JIT, inline="always")
+def load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, hi, first):
+    """Band k's rays (r0 = k * band onwards, m of them) and their t ranges into the scratch o, d, lo, hi from
+    row 0, as float64; with `moved`, into the object space of w2o (3, 4) by the two-level kernels' arithmetic
+    (instances.to_object), so a lone transformed instance gets their t to the bit. Records the band's problems
+    in first[k] (first ray with a NaN or infinity, 0 if in its origin / 1 if in its direction, first ray with a
+    zero direction; -1: none). Returns (r0, m, whether the band is clean)."""
+    r0 = k * band
+    r1 = min(origins.shape[0], r0 + band)
+    bad, where, zero = -1, -1, -1
+    for i in range(r0, r1):
+        ox, oy, oz, dx, dy, dz = ray_at(origins, directions, i)
+        if bad < 0:
+            if not (np.isfinite(ox) and np.isfinite(oy) and np.isfinite(oz)):
+                bad, where = i, 0
+            elif not (np.isfinite(dx) and np.isfinite(dy) and np.isfinite(dz)):
+                bad, where = i, 1
+        if zero < 0 and dx == 0.0 and dy == 0.0 and dz == 0.0:
+            zero = i
+        if moved:
+            ox, oy, oz, dx, dy, dz = to_object(w2o, ox, oy, oz, dx, dy, dz)
+        j = i - r0
+        o[j, 0], o[j, 1], o[j, 2] = ox, oy, oz
+        d[j, 0], d[j, 1], d[j, 2] = dx, dy, dz
+        lo[j], hi[j] = t_min[i], t_max[i]
+    first[k, 0], first[k, 1], first[k, 2] = bad, where, zero
+    return r0, r1 - r0, bad < 0 and zero < 0
+
+
+@nb.njit(**JIT, inline="always")
+def band_scratch(band):
+    """Scratch for one band: origins, directions (band, 3) and t_min, t_max (band,), float64, C-contiguous (the
+    arrays the renderer passes the same kernels, so no new variant of them is compiled)."""
+    return np.empty((band, 3)), np.empty((band, 3)), np.empty(band), np.empty(band)
+
+
+@nb.njit(**JIT)
+def check_bands(origins, directions, t_min, t_max, w2o, band, first, k0, k1):
+    """load_band's checks alone, bands k0..k1 (for a scene with nothing to trace)."""
+    o, d, lo, hi = band_scratch(band)
+    for k in range(k0, k1):
+        load_band(origins, directions, t_min, t_max, w2o, False, k, band, o, d, lo, hi, first)
 
 
 def first_problem(first: np.ndarray) -> tuple[int, int, int]:
-    """Reduce split_checked_rays' per-chunk findings to (first bad ray, its part, first zero direction)."""
+    """Reduce load_band's per-band findings to (first bad ray, its part, first zero direction)."""
     bad = first[:, 0]
     zero = first[:, 2]
     b = int(np.argmax(bad >= 0)) if (bad >= 0).any() else -1
     z = zero[zero >= 0]
     return (int(bad[b]) if b >= 0 else -1, int(first[b, 1]) if b >= 0 else -1, int(z.min()) if len(z) else -1)
-
-
-def n_chunks(n: int) -> int:
-    return -(-int(n) // CHUNK)

@@ -1,0 +1,140 @@
+"""Batch ray queries through a TwoLevelBVH, on the rays as the user gave them (RaycastingScene's engine room).
+
+The rays stay where they are (float32 or float64 views, any strides) and a t range given as a scalar stays a
+stride-0 view: kernels/queries.py reads them band by band into cache-sized scratch, checks them, traces them and
+writes the outputs in the same pass. Per query this allocates the outputs the user gets and nothing of the
+rays' size besides (measured in benchmarks/README.md, issue 9).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kernels.queries import (
+    closest_one_level,
+    closest_two_level,
+    crossings_two_level,
+    occluded_one_level,
+    occluded_two_level,
+)
+from ..kernels.rays import band_size, check_bands, first_problem, n_bands
+from ..kernels.threads import run_pieces
+from .bvh import INVALID_ID, TwoLevelBVH
+
+_NO_PLANES = (np.zeros((0, 3)), np.zeros(0))
+_NO_MAP = np.zeros(0, np.int32)
+_IDENTITY = np.ascontiguousarray(np.eye(4)[:3])
+
+
+@dataclass
+class RayBatch:
+    """Rays as given: origins, directions (N, 3) float32 or float64 of any strides; t_min, t_max (N,) float64
+    (stride 0 for a scalar); the leading shape to give the outputs; the argument names for errors; the image
+    width the packet kernels may use (0: none)."""
+
+    origins: np.ndarray
+    directions: np.ndarray
+    t_min: np.ndarray
+    t_max: np.ndarray
+    lead: tuple
+    names: tuple[str, str]
+    width: int
+
+    def __len__(self) -> int:
+        return self.origins.shape[0]
+
+    def band(self) -> int:
+        return band_size(self.width)
+
+    def run(self, kernel, *args) -> None:
+        """kernel(origins, directions, t_min, t_max, *args, first, k0, k1) over the batch's bands on every
+        thread, then the first bad ray's ValueError, as the checks before the kernels used to raise it."""
+        bands = n_bands(len(self), self.band())
+        first = np.empty((bands, 3), np.int64)
+        run_pieces(kernel, bands, self.origins, self.directions, self.t_min, self.t_max, *args, first)
+        bad, part, zero = first_problem(first)
+        if bad >= 0:
+            raise ValueError(f"{self.names[part]} contains NaN or infinity (ray {bad})")
+        if zero >= 0:
+            raise ValueError(f"direction {zero} is zero")
+
+
+def _one_level(tree: TwoLevelBVH) -> tuple | None:
+    """(w2o, moved, tree arguments, id maps) for the one-level kernels, or None when a shape is shared (as
+    TwoLevelBVH._one_level chooses): a lone instance in its own tree, several through the world tree."""
+    p = tree.packed
+    if len(tree.instances) == 1:
+        w2o = np.ascontiguousarray(p.w2o[0])
+        moved = not np.array_equal(w2o, np.eye(4)[:3])
+        return w2o, moved, (*p.blas, *_NO_PLANES, p.stack), (_NO_MAP, _NO_MAP, _NO_MAP, _NO_MAP)
+    if tree.world is None:
+        return None
+    w = tree.world
+    return _IDENTITY, False, w.args, (w.tri_inst, w.tri_local, w.sph_inst, w.sph_prim)
+
+
+def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
+    """RaycastingScene.cast_rays' arrays, flat: t_hit, geometry_ids, primitive_ids, primitive_uvs (N, 2),
+    primitive_normals (N, 3)."""
+    n = len(rays)
+    t, inst, prim = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32)
+    uv, normals = np.empty((n, 2)), np.empty((n, 3))
+    if not tree.instances:
+        rays.run(check_bands, _IDENTITY, rays.band())
+        t[:], inst[:], prim[:], uv[:], normals[:] = np.inf, INVALID_ID, INVALID_ID, 0.0, 0.0
+    elif (one := _one_level(tree)) is not None:
+        w2o, moved, args, maps = one
+        rays.run(closest_one_level, w2o, moved, *args, rays.width, rays.band(), *maps, *_normal_args(tree),
+                 t, inst, prim, uv, normals)
+    else:
+        p = tree.packed
+        rays.run(closest_two_level, *p.args, rays.band(), p.inst_shape, p.tri_off, p.normals, p.inst_sign,
+                 t, inst, prim, uv, normals)
+    return {"t_hit": t, "geometry_ids": inst, "primitive_ids": prim, "primitive_uvs": uv,
+            "primitive_normals": normals}
+
+
+def occluded(tree: TwoLevelBVH, rays: RayBatch) -> np.ndarray:
+    """Whether each ray hits anything with t_min < t < t_max (RaycastingScene.test_occlusions), flat."""
+    out = np.zeros(len(rays), np.bool_)
+    if not tree.instances:
+        rays.run(check_bands, _IDENTITY, rays.band())
+    elif (one := _one_level(tree)) is not None:
+        w2o, moved, args, _ = one
+        rays.run(occluded_one_level, w2o, moved, *args, rays.width, rays.band(), out)
+    else:
+        rays.run(occluded_two_level, *tree.packed.args, rays.band(), out)
+    return out
+
+
+def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
+    """Every hit of every ray (the two-level kernels): counts (N,) int64, and with fill the hits as flat arrays
+    t, inst, kind, prim, u, v (ray by ray, unsorted within a ray), as TwoLevelBVH.all_hits."""
+    n = len(rays)
+    counts = np.zeros(n, np.int64)
+    f, i32, i8 = np.zeros(0), np.zeros(0, np.int32), np.zeros(0, np.int8)
+    empty = dict(t=f, inst=i32, kind=i8, prim=i32, u=f, v=f)
+    if not tree.instances:
+        rays.run(check_bands, _IDENTITY, rays.band())
+        return counts, (empty if fill else None)
+    args = (*tree.packed.args, rays.band())
+    rays.run(crossings_two_level, *args, np.zeros(n, np.int64), f, i32, i8, i32, f, f, counts)
+    if not fill:
+        return counts, None
+    offsets = np.zeros(n, np.int64)
+    np.cumsum(counts[:-1], out=offsets[1:])
+    total = int(counts.sum())
+    out = dict(t=np.empty(total), inst=np.empty(total, np.int32), kind=np.empty(total, np.int8),
+               prim=np.empty(total, np.int32), u=np.empty(total), v=np.empty(total))
+    if total:
+        rays.run(crossings_two_level, *args, offsets, out["t"], out["inst"], out["kind"], out["prim"], out["u"],
+                 out["v"], counts)
+    return counts, out
+
+
+def _normal_args(tree: TwoLevelBVH) -> tuple:
+    p = tree.packed
+    return p.inst_shape, p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas[4]
+

@@ -1,0 +1,140 @@
+"""The query API's passes (Numba): load, check, trace and write out one band of the user's rays at a time.
+
+Each work item (threads.run_pieces hands out bands k0..k1) copies a band of rays into float64 scratch while
+checking it (rays.load_band), traces the scratch with the ordinary kernels (bvh_trace's one-level packet kernels,
+or instances' two-level ones when a shape is placed twice) and writes every output the user gets straight from
+the scratch while it is in cache: t, instance and primitive ids, barycentrics and world-space normals. A band
+with a bad ray is not traced (the caller raises). The arithmetic is the kernels' own, so the answers are those of
+tracing the whole batch converted to float64 up front, to the bit.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .bvh_trace import any_hit_bvh, closest_hit_bvh
+from .instances import all_hits_instances, any_hit_instances, closest_hit_instances, hit_normal
+from .layout import BLOCK, JIT, MISS, PACKET, SPHERE, TRIANGLE
+from .rays import band_scratch, load_band, ray_at
+
+
+@nb.njit(**JIT, inline="always")
+def n_blocks_of(m):
+    """Blocks (BLOCK packets of PACKET rays: the traced kernels' unit of work) covering m rays."""
+    return (m + PACKET * BLOCK - 1) // (PACKET * BLOCK)
+
+
+@nb.njit(**JIT, inline="always")
+def _write_hits(origins, directions, r0, m, t_out, inst_out, prim_out, kind, u, v, inst_shape, tri_off,
+                tri_normals, inst_w2o, inst_sign, sph_center, uv_out, normal_out):
+    """Finish rays r0..r0+m whose t, instance and (shape-local) primitive ids are in the outputs and whose kind,
+    u, v are in band scratch: barycentrics, world-space normals (instances.hit_normal, from the world ray), and
+    primitive 0 for a sphere."""
+    for j in range(m):
+        i = r0 + j
+        ox, oy, oz, dx, dy, dz = ray_at(origins, directions, i)
+        uv_out[i, 0], uv_out[i, 1] = u[j], v[j]
+        normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = hit_normal(
+            ox, oy, oz, dx, dy, dz, t_out[i], inst_out[i], kind[j], prim_out[i], inst_shape, tri_off,
+            tri_normals, inst_w2o, inst_sign, sph_center)
+        if kind[j] == SPHERE:
+            prim_out[i] = 0
+
+
+@nb.njit(**JIT)
+def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
+                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset,
+                      stack_size, width, band, tri_inst, tri_local, sph_inst, sph_prim,
+                      inst_shape, tri_off, tri_normals, inst_w2o, inst_sign, blas_sph_center,
+                      t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
+    """cast_rays through one tree (bvh_trace.closest_hit_bvh): a lone instance's own tree (its rays moved into
+    its object space when `moved`), or the world tree of several instances, whose triangle and sphere ids
+    tri_inst / tri_local / sph_inst / sph_prim map back to (instance, primitive); with none (empty maps) every
+    hit is instance 0's. Bands k0..k1 of `band` rays; first[k]: band k's problems (rays.load_band)."""
+    mapped = tri_inst.shape[0] + sph_inst.shape[0] > 0
+    o, d, lo, hi = band_scratch(band)
+    kind, u, v = np.empty(band, np.int8), np.empty(band), np.empty(band)
+    for k in range(k0, k1):
+        r0, m, clean = load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, hi, first)
+        if not clean:
+            continue
+        closest_hit_bvh(o[:m], d[:m], lo[:m], hi[:m], bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius,
+                        sph_w2o, pl_normal, pl_offset, stack_size, width, t_out[r0:r0 + m], kind[:m],
+                        prim_out[r0:r0 + m], u[:m], v[:m], 0, n_blocks_of(m))
+        for j in range(m):
+            i = r0 + j
+            p = prim_out[i]
+            if kind[j] == MISS:
+                inst_out[i] = -1
+            elif not mapped:
+                inst_out[i] = 0
+            elif kind[j] == TRIANGLE:
+                inst_out[i], prim_out[i] = tri_inst[p], tri_local[p]
+            else:
+                inst_out[i], prim_out[i] = sph_inst[p], sph_prim[p]
+        _write_hits(origins, directions, r0, m, t_out, inst_out, prim_out, kind, u, v, inst_shape, tri_off,
+                    tri_normals, inst_w2o, inst_sign, blas_sph_center, uv_out, normal_out)
+
+
+@nb.njit(**JIT)
+def closest_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, band,
+                      inst_shape, tri_off, tri_normals, inst_sign,
+                      t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
+    """cast_rays through the two-level tree (instances.closest_hit_instances), when a shape is placed twice."""
+    o, d, lo, hi = band_scratch(band)
+    kind, u, v = np.empty(band, np.int8), np.empty(band), np.empty(band)
+    for k in range(k0, k1):
+        r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
+        if not clean:
+            continue
+        closest_hit_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                              bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
+                              t_out[r0:r0 + m], inst_out[r0:r0 + m], kind[:m], prim_out[r0:r0 + m], u[:m], v[:m], 0,
+                              n_blocks_of(m))
+        _write_hits(origins, directions, r0, m, t_out, inst_out, prim_out, kind, u, v, inst_shape, tri_off,
+                    tri_normals, inst_w2o, inst_sign, sph_center, uv_out, normal_out)
+
+
+@nb.njit(**JIT)
+def occluded_one_level(origins, directions, t_min, t_max, w2o, moved,
+                       bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset,
+                       stack_size, width, band, out, first, k0, k1):
+    """test_occlusions through one tree (bvh_trace.any_hit_bvh), as closest_one_level."""
+    o, d, lo, hi = band_scratch(band)
+    for k in range(k0, k1):
+        r0, m, clean = load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, hi, first)
+        if clean:
+            any_hit_bvh(o[:m], d[:m], lo[:m], hi[:m], bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius,
+                        sph_w2o, pl_normal, pl_offset, stack_size, width, out[r0:r0 + m], 0, n_blocks_of(m))
+
+
+@nb.njit(**JIT)
+def occluded_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                       bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, band,
+                       out, first, k0, k1):
+    """test_occlusions through the two-level tree (instances.any_hit_instances)."""
+    o, d, lo, hi = band_scratch(band)
+    for k in range(k0, k1):
+        r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
+        if clean:
+            any_hit_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                              bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
+                              out[r0:r0 + m], 0, n_blocks_of(m))
+
+
+@nb.njit(**JIT)
+def crossings_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                        bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, band,
+                        offsets, out_t, out_inst, out_kind, out_prim, out_u, out_v, counts, first, k0, k1):
+    """count_intersections / list_intersections (instances.all_hits_instances): counts[i] of every ray, and with
+    outputs long enough its hits from offsets[i] on (offsets into the whole batch's outputs)."""
+    o, d, lo, hi = band_scratch(band)
+    for k in range(k0, k1):
+        r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
+        if clean:
+            all_hits_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                               bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
+                               offsets[r0:r0 + m], out_t, out_inst, out_kind, out_prim, out_u, out_v,
+                               counts[r0:r0 + m], 0, n_blocks_of(m))
