@@ -4,6 +4,7 @@ RaycastingScene and trimesh.proximity, same points, same run, with agreement fig
     python benchmarks/distance.py                  # 1M points around the bunny, 20k around the 1.1M bunny
     python benchmarks/distance.py --quick          # 100k points, bunny only
     python benchmarks/distance.py --occupancy 5    # occupancy only, best of 5, durer and Open3D interleaved
+    python benchmarks/distance.py --occupancy 5 --subdivided   # the same on the 1.1M-triangle bunny
 
 Meshes: the Stanford bunny and its subdivided version (Stanford Computer Graphics Laboratory), from
 ../shared/meshes or --meshes. Points are uniform in the mesh's bounding box grown by 10% on each side. Every
@@ -172,12 +173,18 @@ def main() -> None:
     ap.add_argument("--no-bunny", action="store_true", help="only the 1.1M-triangle bunny")
     ap.add_argument("--occupancy", type=int, metavar="REPEAT", default=0,
                     help="only occupancy on the bunny's points, best of REPEAT, durer and Open3D interleaved")
+    ap.add_argument("--subdivided", action="store_true",
+                    help="with --occupancy: the 1.1M-triangle bunny (--sub-points points) instead of the bunny")
     args = ap.parse_args()
     print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.processor() or platform.machine()}, "
           f"{numba.get_num_threads()} threads, Python {platform.python_version()}, numba {numba.__version__}")
     bunny = trimesh.load(args.meshes / "bun_zipper.ply", process=False)
     if args.occupancy:
-        bench_occupancy(bunny, args.points, args.occupancy)
+        if args.subdivided:
+            sub = trimesh.load(args.meshes / "bun_zipper_subdiv2.ply", process=False)
+            bench_occupancy(sub, args.sub_points, args.occupancy)
+        else:
+            bench_occupancy(bunny, args.points, args.occupancy)
         return
     if not args.no_bunny:
         bench_mesh("Bunny", bunny, 100_000 if args.quick else args.points, 20_000)

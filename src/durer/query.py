@@ -270,8 +270,8 @@ class RaycastingScene:
             raise ValueError("the scene is empty: add a mesh or a sphere before querying points")
         src = np.asarray(query_points)
         arr = np.ascontiguousarray(_numeric_array("query_points", src, (3,))).reshape(-1, 3)
-        bad = ~np.isfinite(arr).all(axis=1)
-        if bad.any():
+        if not np.isfinite(arr).all():  # one cheap pass; the row only when there is one to name
+            bad = ~np.isfinite(arr).all(axis=1)
             raise ValueError(f"query_points contains NaN or infinity (point {int(np.argmax(bad))})")
         return arr, src.shape[:-1], src.dtype == np.float32
 
