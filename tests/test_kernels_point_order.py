@@ -58,7 +58,7 @@ def test_sort_by_cell_of_coincident_and_flat_points():
 def test_grid_bits_grows_with_the_batch_and_stays_bounded():
     assert grid_bits(1) == 1
     assert grid_bits(4 * 8**4) == 4
-    assert grid_bits(4 * 8**6) == 6
+    assert grid_bits(4 * 8**5) == 5
     assert grid_bits(10**12) == MAX_BITS
 
 
