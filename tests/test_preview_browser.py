@@ -82,12 +82,15 @@ def page(browser, server):
 
 
 def _wait_final(page, camera_differs_from: str | None = None) -> str:
-    """Wait for a final frame (of a camera other than the given one); returns the camera's JSON."""
+    """Wait until the image shows the final frame of the current state (of a camera other than the given one);
+    returns that frame's camera as JSON. The state message announcing a new camera arrives before its first
+    frame, so the condition is on the frame drawn (its generation and camera), not on the state."""
     page.wait_for_function(
         """(old) => { const i = document.getElementById('image');
-                      return i.dataset.final === '1' && (old === null || document.body.dataset.camera !== old); }""",
+                      return i.dataset.final === '1' && i.dataset.generation === document.body.dataset.generation
+                             && (old === null || i.dataset.camera !== old); }""",
         arg=camera_differs_from, timeout=WAIT_MS)
-    return page.evaluate("document.body.dataset.camera")
+    return page.evaluate("document.getElementById('image').dataset.camera")
 
 
 def _pixels(page) -> np.ndarray:

@@ -55,6 +55,7 @@ function showFrame(m) {
     image.dataset.level = m.level;
     image.dataset.mode = m.mode;
     image.dataset.final = m.final ? "1" : "0";
+    image.dataset.camera = JSON.stringify(m.camera);  // the camera of the frame shown (the state's may be newer)
     document.body.dataset.camera = JSON.stringify(m.camera);
     $("status").textContent = `${m.final ? "done" : "refining"}: ${m.frame_width}x${m.frame_height}` +
       ` (level ${m.level + 1}/${m.levels}, ${m.seconds.toFixed(2)} s)`;
