@@ -17,11 +17,11 @@ Mesh: the Stanford bunny (Stanford Computer Graphics Laboratory), from ../shared
 from __future__ import annotations
 
 import argparse
-import time
 
 import numba as nb
 import numpy as np
 from raycases import SHARED, load_mesh, random_rays
+from single_ray import cpu_ns_per_ray
 
 from durer.accel.bvh import build_tree
 from durer.kernels.bvh_single import blas_closest, node_dists4, push_nearest_first, ray_setup
@@ -137,13 +137,8 @@ def kernel(bounds, child, leaf_prim, leaf_tri, o, d, stack_size):
 
 
 def cpu_ns(fn, n: int, repeat: int) -> float:
-    fn()
-    times = []
-    for _ in range(repeat):
-        start = time.thread_time()
-        fn()
-        times.append(time.thread_time() - start)
-    return float(np.median(times)) / n * 1e9
+    """Median CPU time of the calling thread per ray, in ns (single_ray.cpu_ns_per_ray's median)."""
+    return cpu_ns_per_ray(fn, n, repeat)[0]
 
 
 def main() -> None:
