@@ -16,12 +16,9 @@ Mesh: the Stanford bunny (Stanford Computer Graphics Laboratory), from ../shared
 
 from __future__ import annotations
 
-import argparse
-
 import numba as nb
 import numpy as np
-from raycases import SHARED, load_mesh, random_rays
-from single_ray import cpu_ns_per_ray
+from single_ray import cpu_ns_per_ray, incoherent_case
 
 from durer.accel.bvh import build_tree
 from durer.kernels.bvh_single import blas_closest, node_dists4, push_nearest_first, ray_setup
@@ -142,13 +139,7 @@ def cpu_ns(fn, n: int, repeat: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--rays", type=int, default=262_144)
-    parser.add_argument("--repeat", type=int, default=5)
-    parser.add_argument("--mesh", default="bun_zipper.ply")
-    args = parser.parse_args()
-    mesh = load_mesh(SHARED / "meshes", args.mesh)
-    o, d = random_rays(mesh, args.rays)
+    args, mesh, o, d = incoherent_case(__doc__.split("\n")[0])
     tree = build_tree(np.asarray(mesh.triangles), np.zeros((0, 3)), np.zeros((0, 3)))
     bounds, child, leaf_tri = tree.bounds.reshape(-1), tree.child, tree.leaf_tri.reshape(-1)
     n = len(o)

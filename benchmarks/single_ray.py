@@ -40,14 +40,19 @@ def cpu_ns_per_ray(fn, n: int, repeat: int) -> tuple[float, float]:
     return float(np.median(times)) / n * 1e9, min(times) / n * 1e9
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def incoherent_case(description: str):
+    """(arguments, mesh, origins, directions) from the command line: --rays incoherent rays at --mesh, --repeat."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--rays", type=int, default=262_144)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--mesh", default="bun_zipper.ply")
     args = parser.parse_args()
     mesh = load_mesh(SHARED / "meshes", args.mesh)
-    o, d = random_rays(mesh, args.rays)
+    return (args, mesh, *random_rays(mesh, args.rays))
+
+
+def main() -> None:
+    args, mesh, o, d = incoherent_case(__doc__.split("\n")[0])
     camera = PerspectiveCamera(center=(0, 0, 1), direction=(0, 0, -1), up=(0, 1, 0), angle=40)
     group = Group([TriangleMesh(np.asarray(mesh.vertices), np.asarray(mesh.faces))])
     acc = BVHAccelerator(compile_scene(Scene(camera=camera, group=group)))
