@@ -79,6 +79,31 @@ def test_same_image_whatever_threads_and_batch(monkeypatch):
     assert not np.array_equal(one, durer.render(scene, 16, 16, seed=1, **kw).color)
 
 
+def test_fused_bounce_gives_the_unfused_image(monkeypatch, tmp_path):
+    """The one-kernel bounce (kernels/path_wavefront.py) against the wavefront of accelerator queries and passes it
+    replaces: the same image, depth and normals to the bit, over point, directional, constant and area emitters,
+    glass, rough and smooth BSDFs, spheres and (course scene) planes and a background colour."""
+    (tmp_path / "mixed.xml").write_text(MIXED)
+    scenes = [durer.load(tmp_path / "mixed.xml"), durer.load(EXAMPLES / "caustic.xml")]
+    course = COURSE / "assignment4" / "scene4_04_reflective_sphere.txt"
+    if course.is_file():
+        scenes.append(durer.load(course))
+    calls = []
+    fused_kernel = P.trace_bounce
+    monkeypatch.setattr(P, "trace_bounce", lambda *a: calls.append(1) or fused_kernel(*a))
+    for scene in scenes:
+        kw = dict(integrator="path", samples=2, max_depth=-1, seed=3)
+        with monkeypatch.context() as m:
+            m.setattr(P, "BVHAccelerator", type("NotTheBVH", (), {}))  # PathTracer then takes the unfused wavefront
+            before = len(calls)
+            unfused = durer.render(scene, 16, 12, **kw)
+            assert len(calls) == before
+        fused = durer.render(scene, 16, 12, **kw)
+        assert len(calls) > before
+        for a, b in ((fused.color, unfused.color), (fused.depth, unfused.depth), (fused.normals, unfused.normals)):
+            np.testing.assert_array_equal(a, b)
+
+
 @needs_course
 def test_course_scene_under_the_path_tracer():
     """A course scene (Phong materials, a solid texture) renders under the path tracer; with max_depth 2 (direct

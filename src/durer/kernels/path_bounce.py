@@ -1,7 +1,8 @@
 """One bounce of the path tracer's wavefront for every live path, fused into one Numba loop: the emission the ray
 found (weighted by multiple importance sampling against light sampling), next-event estimation (a shadow ray per
 path, traced afterwards by the accelerator), BSDF sampling, Russian roulette and the next ray. rendering/path.py
-drives it between the accelerator's closest-hit and any-hit queries and documents the estimator.
+drives it between the accelerator's closest-hit and any-hit queries and documents the estimator. shade_path, the
+work on one path, is also the shading of the fused bounce (kernels/path_wavefront.py).
 
 Random numbers come from the counter-based stream (kernels/qmc.py) keyed by (seed, pixel, sample, dimension), so
 every path's numbers depend only on the path: the result is the same whatever the thread count or work split."""
@@ -33,10 +34,106 @@ def dim2(depth, k):
     return 1 + 2 * depth + k
 
 
+@nb.njit(**JIT, inline="always")
+def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample, keys, pkeys, thr, eta, prev, bsdf,
+               lights, env, scalars, L):
+    """Shade one path after its closest hit: the body of shade_bounce, shared with the fused bounce of
+    kernels/path_wavefront.py (inlined into both).
+
+    ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, geometric normal and material slots (se as hit,
+    s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped; j the
+    path's row in L, sample, keys, pkeys; row its row in env; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y,
+    z) its state. Adds found light to L[j]; returns (shadow ray: valid, origin, direction, t_max, contribution, and
+    next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
+    P, T = bsdf
+    K, _, F, _, _, _, tri_em, sph_em = lights
+    depth, emit, last, rr_depth = scalars
+    count = K.shape[0]
+    ox, oy, oz, dx, dy, dz = ray
+    t0, t1, t2 = thr
+    shadow_ok = False
+    so = (0.0, 0.0, 0.0)
+    sd = (0.0, 0.0, 0.0)
+    st = 0.0
+    sc = (0.0, 0.0, 0.0)
+    px = py = pz = 0.0
+    # --- emission seen by this ray (BSDF sampling's share of MIS)
+    if hit:
+        px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
+        if emit and se >= 0:
+            sgn = -1.0 if P[se, FLIP] != 0 else 1.0
+            nx, ny, nz = gx * sgn, gy * sgn, gz * sgn
+            if nx * dx + ny * dy + nz * dz < 0:
+                le0, le1, le2 = P[se, EMISSION], P[se, EMISSION + 1], P[se, EMISSION + 2]
+                e = -1
+                if kind == TRIANGLE:
+                    e = tri_em[prim]
+                elif kind == SPHERE:
+                    e = sph_em[prim]
+                w = 1.0
+                if prev[1] == 0 and e >= 0:
+                    pdf_l = emitter_pdf(K, F, e, prev[2], prev[3], prev[4], px, py, pz, nx, ny, nz)
+                    w = power_heuristic1(prev[0], pdf_l / count)
+                L[j, 0] += t0 * le0 * w
+                L[j, 1] += t1 * le1 * w
+                L[j, 2] += t2 * le2 * w
+    elif emit:
+        w = 1.0
+        if prev[1] == 0 and miss[4]:
+            w = power_heuristic1(prev[0], miss[3])
+        L[j, 0] += t0 * miss[0] * w
+        L[j, 1] += t1 * miss[1] * w
+        L[j, 2] += t2 * miss[2] * w
+    if not hit or last or s < 0:
+        return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
+    sgn = -1.0 if P[s, FLIP] != 0 else 1.0
+    nx, ny, nz = gx * sgn, gy * sgn, gz * sgn
+    ts, tt = frame3(nx, ny, nz)
+    wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
+    scale = 1e-7 * (1.0 + max(abs(px), abs(py), abs(pz)))
+    # --- next-event estimation (light sampling's share of MIS)
+    if count and P[s, SMOOTH] != 0:
+        u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 0))
+        ld, ldist, lw, lpdf = pick_sample(lights, env, row, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
+        wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
+        f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
+        mis = power_heuristic1(lpdf, bpdf)
+        c0, c1, c2 = t0 * f0 * lw[0] * mis, t1 * f1 * lw[1] * mis, t2 * f2 * lw[2] * mis
+        if max(c0, c1, c2) > 0 and lpdf > 0:
+            side = ld[0] * gx + ld[1] * gy + ld[2] * gz
+            off = scale * (1.0 if side > 0 else (-1.0 if side < 0 else 0.0))
+            so = (px + off * gx, py + off * gy, pz + off * gz)
+            sd = (ld[0], ld[1], ld[2])
+            st = math.inf if math.isinf(ldist) else ldist * (1.0 - 1e-6) - scale
+            sc = (c0, c1, c2)
+            shadow_ok = True
+    # --- BSDF sampling, Russian roulette, the next ray
+    u = uniform1(keys[j], dim1(depth, 1))
+    u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 1))
+    wl, bw, bpdf, delta, beta = bsdf_sample(P, T, s, wi, u, u0, u1)
+    t0, t1, t2 = t0 * bw[0], t1 * bw[1], t2 * bw[2]
+    e2 = eta * beta
+    if rr_depth <= depth + 1:
+        q = min(max(t0, t1, t2) * e2 * e2, 0.95)
+        if uniform1(keys[j], dim1(depth, 2)) < q:
+            inv = 1.0 / max(q, 1e-300)
+            t0, t1, t2 = t0 * inv, t1 * inv, t2 * inv
+        else:
+            t0 = t1 = t2 = 0.0
+    if not max(t0, t1, t2) > 0:
+        return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
+    wx, wy, wz = to_world3(wl[0], wl[1], wl[2], ts, tt, nx, ny, nz)
+    side = wx * gx + wy * gy + wz * gz
+    off = scale * (1.0 if side > 0 else (-1.0 if side < 0 else 0.0))
+    ln = math.sqrt(wx * wx + wy * wy + wz * wz)
+    return (shadow_ok, so, sd, st, sc, (t0, t1, t2), (px + off * gx, py + off * gy, pz + off * gz),
+            (wx / ln, wy / ln, wz / ln), (bpdf, 1.0 if delta else 0.0, px, py, pz), e2)
+
+
 @nb.njit(**JIT)
 def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
                  shadow, nxt, i0, i1):
-    """Shade paths i0..i1 of a wavefront after its closest-hit query.
+    """Shade paths i0..i1 of a wavefront after its closest-hit query (shade_path on each).
 
     o, d (n, 3) the rays; hit_* the Hits; ng (n, 3) geometric normals; slot_em the hit's material slot,
     slot the same with solid textures resolved; path = (idx, sample, keys, pixel keys, thr (n,3), eta,
@@ -48,99 +145,28 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
     valid), and its next ray: nxt = (origin, direction, prev as above, throughput (0: the path ended), eta)."""
     idx, sample, keys, pkeys, thr, eta, prev = path
     miss_le, miss_pdf, miss_em = misses
-    P, T = bsdf
-    K, _, F, _, _, _, tri_em, sph_em = lights
-    depth, emit, last, rr_depth = scalars
     shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = shadow
     nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta = nxt
-    count = K.shape[0]
     for i in range(i0, i1):
-        shadow_ok[i] = False
-        nxt_thr[i, 0] = nxt_thr[i, 1] = nxt_thr[i, 2] = 0.0
-        ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
-        t0, t1, t2 = thr[i, 0], thr[i, 1], thr[i, 2]
-        hit = hit_kind[i] != MISS
-        j = idx[i]
-        # --- emission seen by this ray (BSDF sampling's share of MIS)
-        if hit:
-            px, py, pz = ox + hit_t[i] * dx, oy + hit_t[i] * dy, oz + hit_t[i] * dz
-            gx, gy, gz = ng[i, 0], ng[i, 1], ng[i, 2]
-            se = slot_em[i]
-            if emit and se >= 0:
-                sgn = -1.0 if P[se, FLIP] != 0 else 1.0
-                nx, ny, nz = gx * sgn, gy * sgn, gz * sgn
-                if nx * dx + ny * dy + nz * dz < 0:
-                    le0, le1, le2 = P[se, EMISSION], P[se, EMISSION + 1], P[se, EMISSION + 2]
-                    e = -1
-                    if hit_kind[i] == TRIANGLE:
-                        e = tri_em[hit_prim[i]]
-                    elif hit_kind[i] == SPHERE:
-                        e = sph_em[hit_prim[i]]
-                    w = 1.0
-                    if prev[i, 1] == 0 and e >= 0:
-                        pdf_l = emitter_pdf(K, F, e, prev[i, 2], prev[i, 3], prev[i, 4], px, py, pz, nx, ny, nz)
-                        w = power_heuristic1(prev[i, 0], pdf_l / count)
-                    L[j, 0] += t0 * le0 * w
-                    L[j, 1] += t1 * le1 * w
-                    L[j, 2] += t2 * le2 * w
-        else:
-            if emit:
-                w = 1.0
-                if prev[i, 1] == 0 and miss_em[i]:
-                    w = power_heuristic1(prev[i, 0], miss_pdf[i])
-                L[j, 0] += t0 * miss_le[i, 0] * w
-                L[j, 1] += t1 * miss_le[i, 1] * w
-                L[j, 2] += t2 * miss_le[i, 2] * w
-            continue
-        s = slot[i]
-        if last or s < 0:
-            continue
-        sgn = -1.0 if P[s, FLIP] != 0 else 1.0
-        nx, ny, nz = gx * sgn, gy * sgn, gz * sgn
-        ts, tt = frame3(nx, ny, nz)
-        wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
-        scale = 1e-7 * (1.0 + max(abs(px), abs(py), abs(pz)))
-        # --- next-event estimation (light sampling's share of MIS)
-        if count and P[s, SMOOTH] != 0:
-            u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 0))
-            ld, ldist, lw, lpdf = pick_sample(lights, env, i, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
-            wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
-            f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
-            mis = power_heuristic1(lpdf, bpdf)
-            c0, c1, c2 = t0 * f0 * lw[0] * mis, t1 * f1 * lw[1] * mis, t2 * f2 * lw[2] * mis
-            if max(c0, c1, c2) > 0 and lpdf > 0:
-                side = ld[0] * gx + ld[1] * gy + ld[2] * gz
-                off = scale * (1.0 if side > 0 else (-1.0 if side < 0 else 0.0))
-                shadow_o[i, 0], shadow_o[i, 1], shadow_o[i, 2] = px + off * gx, py + off * gy, pz + off * gz
-                shadow_d[i, 0], shadow_d[i, 1], shadow_d[i, 2] = ld[0], ld[1], ld[2]
-                shadow_t[i] = math.inf if math.isinf(ldist) else ldist * (1.0 - 1e-6) - scale
-                shadow_c[i, 0], shadow_c[i, 1], shadow_c[i, 2] = c0, c1, c2
-                shadow_ok[i] = True
-        # --- BSDF sampling, Russian roulette, the next ray
-        u = uniform1(keys[j], dim1(depth, 1))
-        u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 1))
-        wl, bw, bpdf, delta, beta = bsdf_sample(P, T, s, wi, u, u0, u1)
-        t0, t1, t2 = t0 * bw[0], t1 * bw[1], t2 * bw[2]
-        e2 = eta[i] * beta
-        if rr_depth <= depth + 1:
-            q = min(max(t0, t1, t2) * e2 * e2, 0.95)
-            if uniform1(keys[j], dim1(depth, 2)) < q:
-                inv = 1.0 / max(q, 1e-300)
-                t0, t1, t2 = t0 * inv, t1 * inv, t2 * inv
-            else:
-                t0 = t1 = t2 = 0.0
-        if not max(t0, t1, t2) > 0:
-            continue
-        wx, wy, wz = to_world3(wl[0], wl[1], wl[2], ts, tt, nx, ny, nz)
-        side = wx * gx + wy * gy + wz * gz
-        off = scale * (1.0 if side > 0 else (-1.0 if side < 0 else 0.0))
-        ln = math.sqrt(wx * wx + wy * wy + wz * wz)
-        nxt_o[i, 0], nxt_o[i, 1], nxt_o[i, 2] = px + off * gx, py + off * gy, pz + off * gz
-        nxt_d[i, 0], nxt_d[i, 1], nxt_d[i, 2] = wx / ln, wy / ln, wz / ln
-        nxt_prev[i, 0], nxt_prev[i, 1] = bpdf, 1.0 if delta else 0.0
-        nxt_prev[i, 2], nxt_prev[i, 3], nxt_prev[i, 4] = px, py, pz
-        nxt_thr[i, 0], nxt_thr[i, 1], nxt_thr[i, 2] = t0, t1, t2
-        nxt_eta[i] = e2
+        k = hit_kind[i]
+        ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
+            (o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]), k != MISS, k, hit_prim[i], hit_t[i],
+            ng[i, 0], ng[i, 1], ng[i, 2], slot_em[i], slot[i],
+            (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], i, sample, keys, pkeys,
+            (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
+            bsdf, lights, env, scalars, L)
+        shadow_ok[i] = ok
+        if ok:
+            shadow_o[i, 0], shadow_o[i, 1], shadow_o[i, 2] = so
+            shadow_d[i, 0], shadow_d[i, 1], shadow_d[i, 2] = sd
+            shadow_t[i] = st
+            shadow_c[i, 0], shadow_c[i, 1], shadow_c[i, 2] = sc
+        nxt_thr[i, 0], nxt_thr[i, 1], nxt_thr[i, 2] = nt
+        if nt[0] > 0 or nt[1] > 0 or nt[2] > 0:
+            nxt_o[i, 0], nxt_o[i, 1], nxt_o[i, 2] = no
+            nxt_d[i, 0], nxt_d[i, 1], nxt_d[i, 2] = nd
+            nxt_prev[i, 0], nxt_prev[i, 1], nxt_prev[i, 2], nxt_prev[i, 3], nxt_prev[i, 4] = npv
+            nxt_eta[i] = ne
 
 
 @nb.njit(**JIT)

@@ -2,12 +2,15 @@
 importance sampling (power heuristic), and Russian roulette, as Mitsuba 3's `path` integrator.
 
 `max_depth` has Mitsuba's meaning: 1 shows emitters seen directly, 2 adds direct light, -1 is unbounded (paths end
-by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths are traced as a wavefront: every
-bounce is one closest_hit and one any_hit query on the scene's accelerator (accel/hits.py) for all live paths of a
-batch, and between them one Numba pass for the hit surfaces (kernels/surface.py) and one for the shading
-(kernels/path_bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray); there is no Python loop
-over rays. Random numbers come from the counter-based stream of sampling.py / kernels/qmc.py keyed by (seed,
-pixel, sample, dimension), so an image is the same whatever the thread count and batch size.
+by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths are traced as a wavefront, one
+bounce of all live paths of a batch at a time, with no Python loop over rays. On the default one-level BVH a bounce
+is one Numba kernel (kernels/path_wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path);
+otherwise (other accelerators, instances, solid textures, environment maps) it is one closest_hit and one any_hit
+query on the scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces
+(kernels/surface.py) and one for the shading (kernels/path_bounce.py: emission, light sample, BSDF sample, Russian
+roulette, next ray). Both give the same numbers to the bit. Random numbers come from the counter-based stream of
+sampling.py / kernels/qmc.py keyed by (seed, pixel, sample, dimension), so an image is the same whatever the thread
+count and batch size.
 """
 
 from __future__ import annotations
@@ -16,7 +19,9 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ..accel.bvh import BVHAccelerator
 from ..kernels.path_bounce import add_unblocked, dim1, dim2, shade_bounce
+from ..kernels.path_wavefront import PIECES, scratch, trace_bounce
 from ..kernels.surface import hit_surfaces
 from ..kernels.threads import run_pieces
 from ..scene.cameras import image_camera
@@ -50,9 +55,61 @@ class PathTracer:
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
             flat.plane_material))
+        # the fused bounce (kernels/path_wavefront.py) needs the one-level BVH's walk and every piece of shading in
+        # Numba: other accelerators, instances, solid textures and environment maps take the unfused wavefront
+        accel = ctx.accel
+        self._fused = (type(accel) is BVHAccelerator and accel.instances is None and not self.table.is_texture.any()
+                       and self.emitters.envmap is None)
+        self._bvh = accel._args() if self._fused else None
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
         """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
+        if self._fused:
+            return self._trace_fused(origins, directions, t_min, pixel, sample_index)
+        return self._trace_unfused(origins, directions, t_min, pixel, sample_index)
+
+    def _trace_fused(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
+        """trace with one kernel per bounce (trace_bounce) over the live paths, whose state it updates in place:
+        the same numbers as _trace_unfused to the bit."""
+        seed, n = self.ctx.options.seed, len(origins)
+        sample_index = np.ascontiguousarray(sample_index, dtype=np.int64)
+        path = (sample_index, key(seed, pixel, sample_index), key(seed, pixel, np.full(n, PIXEL_KEY)))
+        L, first_t, first_n = np.zeros((n, 3)), np.full(n, np.inf), np.zeros((n, 3))
+        o = np.array(origins, dtype=np.float64, order="C")
+        d = np.ascontiguousarray(normalize(directions), dtype=np.float64)
+        thr, eta = np.ones((n, 3)), np.ones(n)
+        prev = np.column_stack([np.ones(n), np.ones(n), origins])
+        live, alive = np.arange(n), np.empty(n, bool)
+        bsdf, lights = self.table.packed(), self.emitters.pack()
+        env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
+        depth, tmin, work = 0, float(t_min), scratch(self._bvh[-1])
+        while len(live) and depth < MAX_BOUNCES:
+            last = 0 <= self.max_depth <= depth + 1
+            scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth)
+            run_pieces(trace_bounce, PIECES, live, o, d, thr, eta, prev, path, self._bvh, self._surfaces,
+                       self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, (first_t, first_n), alive,
+                       work)
+            if last:
+                break
+            live = live[alive[:len(live)]]
+            tmin = 0.0
+            depth += 1
+        return L, first_t, first_n
+
+    def _miss_constants(self, depth: int) -> tuple[float, float, float, float, bool]:
+        """What _misses gives every escaping ray when there is no environment map: (radiance r, g, b, light pdf,
+        is an emitter) of the constant environment, or of the background for camera rays of a course scene."""
+        em = self.emitters
+        if depth == 0 and self.background is not None:
+            r, g, b = (float(c) for c in self.background)
+            return r, g, b, 0.0, False
+        if em.has_environment:
+            r, g, b = (float(c) for c in em.environment)
+            return r, g, b, 1.0 / (4.0 * np.pi * em.count), True
+        return 0.0, 0.0, 0.0, 0.0, False
+
+    def _trace_unfused(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
+        """trace as a bounce of accelerator queries and shading passes, on any accelerator and scene."""
         ctx, tb, em = self.ctx, self.table, self.emitters
         seed = ctx.options.seed
         n = len(origins)

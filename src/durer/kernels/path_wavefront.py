@@ -1,0 +1,100 @@
+"""One whole bounce of the path tracer's wavefront in one Numba loop, for scenes on a one-level BVH: per live path
+the closest hit (kernels/bvh_single.py's one-ray walk, as the accelerator's closest_hit_bvh traces incoherent
+rays), the hit surface (kernels/surface.py), the shading (kernels/path_bounce.py's shade_path) and the shadow ray's
+any-hit, then the next ray written over the path's own state. No intermediate arrays, gathers or Python between
+the pieces: rendering/path.py calls it once per bounce with the list of live paths.
+
+The numbers are those of the unfused wavefront to the bit: the same functions in the same order per path, and each
+path's light is added in the same order (its emission found, then its shadow ray's light, bounce by bounce)."""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .bvh_single import blas_any, blas_closest, planes_closest
+from .layout import JIT, MISS, PLANE
+from .path_bounce import shade_path
+from .surface import surface_at
+
+# The accelerator's one-ray walks, compiled inline into trace_bounce (the same Python functions, so no second
+# copy of the traversal): a call passes a dozen arrays, and a call's reference counting cost more than its walk
+# through a ~36-triangle tree.
+_closest = nb.njit(**JIT, inline="always")(blas_closest.py_func)
+_any = nb.njit(**JIT, inline="always")(blas_any.py_func)
+_planes = nb.njit(**JIT, inline="always")(planes_closest.py_func)
+
+PIECES = 32  # work items of a bounce: a few per thread, so a thread that was descheduled does not stall the other
+
+
+def scratch(stack_size: int) -> tuple:
+    """Each piece's traversal stack (nodes, entry distances) and lane distances: trace_bounce allocates nothing."""
+    return np.empty((PIECES, stack_size), np.int32), np.empty((PIECES, stack_size)), np.empty((PIECES, 4))
+
+
+# _nrt=False: no reference counting in this kernel. With it, every array taken out of a tuple argument inside the
+# per-path loop (the inlined shading reads a dozen) and every call was an atomic increment and decrement, 36% of
+# the kernel's time on the Cornell box (408 -> 260 ns per path and bounce, one thread), and an atomic on a shared
+# array's count is a cache line the two threads pass back and forth. Without the runtime the kernel cannot
+# allocate: Numba refuses to compile an allocation here, so no array can leak; the scratch comes from the caller.
+@nb.njit(**JIT, _nrt=False)
+def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L,
+                 first, alive, scratch, p0, p1):
+    """Bounce `scalars[0]` of the paths `live`, pieces p0..p1 of PIECES: each path traced, shaded and advanced
+    in place.
+
+    live: the row of each live path in the wavefront's arrays; o, d (n, 3) its ray, thr (n, 3) throughput, eta
+    (n,), prev (n, 5) as in shade_bounce, all overwritten with the next bounce's; path = (sample, keys, pixel
+    keys) (n,); accel = the one-level BVH's arrays (BVHAccelerator._args: bounds, child, leaf slots and
+    triangles, spheres, planes, stack size); surfaces = CompiledScene.flat's arrays as hit_surfaces takes them;
+    miss = (radiance r, g, b, light pdf, is an emitter) of every escaping ray; bsdf, lights, env and scalars as
+    shade_bounce's; t_min of the rays. Adds found light to L (n, 3); on bounce 0 writes each path's first hit to
+    first = (t (n,), geometric normal (n, 3)); alive[k] says whether path live[k] goes on. scratch = scratch()."""
+    m = live.shape[0]
+    for piece in range(p0, p1):
+        stack_node, stack_t, dist = scratch[0][piece], scratch[1][piece], scratch[2][piece]
+        for k in range(m * piece // PIECES, m * (piece + 1) // PIECES):
+            _one_path(live[k], k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars,
+                      t_min, L, first, alive, stack_node, stack_t, dist)
+
+
+@nb.njit(**JIT, inline="always")
+def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L, first,
+              alive, stack_node, stack_t, dist):
+    """trace_bounce's work on path i (live[k])."""
+    sample, keys, pkeys = path
+    bounds, child, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o, pl_n, pl_off, _ = accel
+    tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat = surfaces
+    first_t, first_n = first
+    ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
+    best, pprim = _planes(pl_n, pl_off, ox, oy, oz, dx, dy, dz, t_min, np.inf)
+    t, kind, prim, _, _ = _closest(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
+                                   ox, oy, oz, dx, dy, dz, t_min, best, stack_node, stack_t, dist)
+    if kind == MISS and pprim >= 0:
+        t, kind, prim = best, PLANE, pprim
+    hit = kind != MISS
+    h = t if hit else 0.0
+    gx, gy, gz, s = surface_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_mat, w2o, center,
+                               normal_matrix, sph_mat, plane_normal, plane_mat)
+    if scalars[0] == 0:
+        first_t[i] = t
+        first_n[i, 0], first_n[i, 1], first_n[i, 2] = gx, gy, gz
+    ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
+        (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, gx, gy, gz, s, s, miss, i, i, sample, keys, pkeys,
+        (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
+        bsdf, lights, env, scalars, L)
+    if ok:
+        _, blocker = _planes(pl_n, pl_off, so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st)
+        if blocker < 0 and not _any(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
+                                    so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st, stack_node, dist):
+            L[i, 0] += sc[0]
+            L[i, 1] += sc[1]
+            L[i, 2] += sc[2]
+    go = nt[0] > 0 or nt[1] > 0 or nt[2] > 0
+    alive[k] = go
+    if go:
+        thr[i, 0], thr[i, 1], thr[i, 2] = nt
+        o[i, 0], o[i, 1], o[i, 2] = no
+        d[i, 0], d[i, 1], d[i, 2] = nd
+        prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4] = npv
+        eta[i] = ne
