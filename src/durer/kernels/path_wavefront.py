@@ -15,6 +15,7 @@ import numpy as np
 from .bvh_single import blas_any, blas_closest, planes_closest
 from .layout import JIT, MISS, PLANE
 from .path_bounce import shade_path
+from .qmc import mix64
 from .surface import surface_at
 
 # The accelerator's one-ray walks, compiled inline into trace_bounce (the same Python functions, so no second
@@ -24,6 +25,7 @@ _closest = nb.njit(**JIT, inline="always")(blas_closest.py_func)
 _any = nb.njit(**JIT, inline="always")(blas_any.py_func)
 _planes = nb.njit(**JIT, inline="always")(planes_closest.py_func)
 
+_SAMPLE_MIX = np.uint64(0xD1B54A32D192ED03)  # rendering/sampling.key's multiplier of the sample index
 PIECES = 32  # work items of a bounce: a few per thread, so a thread that was descheduled does not stall the other
 
 
@@ -98,3 +100,30 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
         d[i, 0], d[i, 1], d[i, 2] = nd
         prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4] = npv
         eta[i] = ne
+
+
+@nb.njit(**JIT)
+def start_paths(seed_key, pixel, sample, pixel_sample, origins, directions, state, streams, out):
+    """The wavefront's state for camera rays (origins, directions (n, 3)) of (pixel, sample) in one pass, as the
+    NumPy of the unfused wavefront makes it (the same bits): state = (o, unit d, throughput 1, eta 1, prev = (1, 1,
+    origin)); streams = (keys, pixel keys): rendering/sampling.key of (seed, pixel, sample) and of (seed, pixel,
+    pixel_sample), seed_key = the seed's mix; out = (L = 0, first t = inf, first normal = 0)."""
+    o, d, thr, eta, prev = state
+    keys, pkeys = streams
+    L, first_t, first_n = out
+    pk = np.uint64(pixel_sample) * _SAMPLE_MIX
+    for i in range(pixel.shape[0]):
+        k = mix64(np.uint64(pixel[i]) + seed_key)
+        keys[i] = mix64(k ^ (np.uint64(sample[i]) * _SAMPLE_MIX))
+        pkeys[i] = mix64(k ^ pk)
+        x, y, z = directions[i, 0], directions[i, 1], directions[i, 2]
+        ln = np.sqrt(x * x + y * y + z * z)
+        d[i, 0], d[i, 1], d[i, 2] = x / ln, y / ln, z / ln
+        for c in range(3):
+            o[i, c] = origins[i, c]
+            prev[i, 2 + c] = origins[i, c]
+            thr[i, c] = 1.0
+            L[i, c] = 0.0
+            first_n[i, c] = 0.0
+        prev[i, 0] = prev[i, 1] = eta[i] = 1.0
+        first_t[i] = np.inf

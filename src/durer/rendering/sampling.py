@@ -27,11 +27,16 @@ def mix64(x: np.ndarray) -> np.ndarray:
     return x ^ (x >> _U64(31))
 
 
+def seed_key(seed: int) -> np.uint64:
+    """The seed's share of every stream key (key, and the path tracer's kernels/path_wavefront.start_paths)."""
+    with np.errstate(over="ignore"):
+        return _U64(mix64(_U64(int(seed) & 0xFFFFFFFFFFFFFFFF) + _U64(0x9E3779B97F4A7C15)))
+
+
 def key(seed: int, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
     """(N,) uint64 stream keys of (seed, pixel, sample): distinct inputs give unrelated keys."""
     with np.errstate(over="ignore"):
-        s = mix64(_U64(int(seed) & 0xFFFFFFFFFFFFFFFF) + _U64(0x9E3779B97F4A7C15))
-        k = mix64(np.asarray(pixel, dtype=_U64) + s)
+        k = mix64(np.asarray(pixel, dtype=_U64) + seed_key(seed))
         return mix64(k ^ (np.asarray(sample, dtype=_U64) * _U64(0xD1B54A32D192ED03)))
 
 
