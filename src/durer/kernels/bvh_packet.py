@@ -37,10 +37,13 @@ from .layout import (
 )
 from .small_sort import insert_ascending
 
-# Scratch rows of `rr` (float64, (_NROW, PACKET)):
-(_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
- _PRIM) = range(21)
-_NROW = 21
+# Scratch rows of `rr` (float64, (_NROW, PACKET)): per ray, but for _EXT, the packet's extremes (packet_setup):
+# columns 0-5 the origins' lo, hi on x, y, z; 6-11 the reciprocal directions' lo, hi on x, y, z; 12 the lowest t_min
+(_OX, _OY, _OZ, _EXT, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
+ _PRIM) = range(19)
+_NROW = 19
+_EXT_INV = 6   # column of the reciprocal directions' extremes in _EXT
+_EXT_TMIN = 12  # column of the lowest t_min in _EXT
 
 
 @nb.njit(**JIT, inline="always")
@@ -63,63 +66,86 @@ def chunk_rays(c, n, width, idx):
     return PACKET
 
 
+@nb.njit(**JIT, inline="always")
+def _nonzero(x):
+    """A direction component as the slab test takes it: 0 as 1e-300 (ray_setup's reciprocal of 1e300)."""
+    return x if x != 0.0 else 1e-300
+
+
 @nb.njit(**JIT)
 def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
     """Load rays idx[:n] into the scratch rows (padding rays never hit) and return (coherent, nrx, nry, nrz,
     kx, ky, kz): coherent when all n rays share direction signs and axis permutation, their directions lie
     within PACKET_CONE of the first ray's and their origins within max_spread of each other (packet_spread_limit)
-    on every axis. Only then are the per-ray constants computed (in a loop over rays that vectorises, with
-    ray_setup's exact operations)."""
+    on every axis. Only then are the per-ray constants computed, with ray_setup's exact operations. Each loop
+    reads and writes few rows, so that LLVM vectorises it (one loop writing every row was left scalar: too many
+    arrays to check for overlap)."""
     i0 = idx[0]
     dx0, dy0, dz0 = directions[i0, 0], directions[i0, 1], directions[i0, 2]
     kx0, ky0, kz0 = shear_axes(dx0, dy0, dz0)
     s0 = (dx0 < 0.0) + 2 * (dy0 < 0.0) + 4 * (dz0 < 0.0)
     cone0 = PACKET_CONE * np.sqrt(dx0 * dx0 + dy0 * dy0 + dz0 * dz0)
-    coherent = True
     for k in range(PACKET):
         i = idx[k] if k < n else i0
-        dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
-        kx, ky, kz = shear_axes(dx, dy, dz)
+        rr[_DX, k], rr[_DY, k], rr[_DZ, k] = directions[i, 0], directions[i, 1], directions[i, 2]
+    bad = 0
+    for k in range(PACKET):
+        dx, dy, dz = rr[_DX, k], rr[_DY, k], rr[_DZ, k]
+        ax, ay, az = abs(dx), abs(dy), abs(dz)
+        kz = 0 if (ax >= ay) & (ax >= az) else (1 if ay >= az else 2)  # shear_axes' kz; kx, ky follow the signs
         sgn = (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0)
-        if (sgn != s0 or kx != kx0 or ky != ky0 or kz != kz0
-                or dx * dx0 + dy * dy0 + dz * dz0 < cone0 * np.sqrt(dx * dx + dy * dy + dz * dz)):
-            coherent = False
-            break
+        bad += ((sgn != s0) | (kz != kz0)
+                | (dx * dx0 + dy * dy0 + dz * dz0 < cone0 * np.sqrt(dx * dx + dy * dy + dz * dz)))
+    if bad:
+        return False, 0, 4, 8, kx0, ky0, kz0
+    for k in range(PACKET):
+        i = idx[k] if k < n else i0
         rr[_OX, k], rr[_OY, k], rr[_OZ, k] = origins[i, 0], origins[i, 1], origins[i, 2]
-        rr[_DX, k], rr[_DY, k], rr[_DZ, k] = dx, dy, dz
         if k < n:
             rr[_TMIN, k], rr[_BEST, k] = t_min[i], t_max[i]
         else:
             rr[_TMIN, k], rr[_BEST, k] = np.inf, -np.inf
-    if coherent:
-        for row in (_OX, _OY, _OZ):
-            lo = hi = rr[row, 0]
-            for k in range(1, PACKET):
-                lo, hi = min(lo, rr[row, k]), max(hi, rr[row, k])
-            if hi - lo > max_spread:
-                coherent = False
-    if not coherent:
-        return False, 0, 4, 8, kx0, ky0, kz0
+    for axis in range(3):
+        lo = hi = rr[_OX + axis, 0]
+        for k in range(1, PACKET):
+            lo, hi = min(lo, rr[_OX + axis, k]), max(hi, rr[_OX + axis, k])
+        if hi - lo > max_spread:
+            return False, 0, 4, 8, kx0, ky0, kz0
+        rr[_EXT, 2 * axis], rr[_EXT, 2 * axis + 1] = lo, hi
+    # the reciprocal directions' extremes (a zero component as 1e-300, as ray_setup takes it): the rays share each
+    # component's sign and 1 / x falls with x on either side of 0, rounding included, so the extremes of the
+    # rounded reciprocals are the reciprocals of the extremes: 6 divisions a packet, not 48, and the same bits
+    for axis in range(3):
+        lo = hi = _nonzero(rr[_DX + axis, 0])
+        for k in range(1, PACKET):
+            dk = _nonzero(rr[_DX + axis, k])
+            lo, hi = min(lo, dk), max(hi, dk)
+        rr[_EXT, _EXT_INV + 2 * axis], rr[_EXT, _EXT_INV + 2 * axis + 1] = 1.0 / hi, 1.0 / lo
+    tlo = rr[_TMIN, 0]
+    for k in range(1, PACKET):
+        tlo = min(tlo, rr[_TMIN, k])
+    rr[_EXT, _EXT_TMIN] = tlo
     for k in range(PACKET):
-        dx, dy, dz = rr[_DX, k], rr[_DY, k], rr[_DZ, k]
-        rr[_IX, k] = 1.0 / (dx if dx != 0.0 else 1e-300)
-        rr[_IY, k] = 1.0 / (dy if dy != 0.0 else 1e-300)
-        rr[_IZ, k] = 1.0 / (dz if dz != 0.0 else 1e-300)
         dkz = rr[_DX + kz0, k]
         rr[_SX, k] = rr[_DX + kx0, k] / dkz
+    for k in range(PACKET):
+        dkz = rr[_DX + kz0, k]
         rr[_SY, k] = rr[_DX + ky0, k] / dkz
-        rr[_SZ, k] = 1.0 / dkz
+    for k in range(PACKET):
+        rr[_SZ, k] = 1.0 / rr[_DX + kz0, k]
+    for k in range(PACKET):
         rr[_OKX, k] = rr[_OX + kx0, k]
         rr[_OKY, k] = rr[_OX + ky0, k]
         rr[_OKZ, k] = rr[_OX + kz0, k]
+    for k in range(PACKET):
         rr[_E1, k] = 0.0
         rr[_E2, k] = 0.0
         rr[_DET, k] = 1.0
         rr[_PRIM, k] = -np.inf
     # near-plane row offsets as in ray_setup (a zero component counts as positive there too)
-    nrx = 12 if rr[_IX, 0] < 0.0 else 0
-    nry = 16 if rr[_IY, 0] < 0.0 else 4
-    nrz = 20 if rr[_IZ, 0] < 0.0 else 8
+    nrx = 12 if rr[_EXT, _EXT_INV] < 0.0 else 0
+    nry = 16 if rr[_EXT, _EXT_INV + 2] < 0.0 else 4
+    nrz = 20 if rr[_EXT, _EXT_INV + 4] < 0.0 else 8
     return True, nrx, nry, nrz, kx0, ky0, kz0
 
 
@@ -216,22 +242,12 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
     conservative to the bit), children are ordered by the packet's entry distance, which the stack keeps: a
     node is skipped when it lies beyond every ray's closest hit so far. Leaves met in a node are tested at once,
     against all the packet's rays (the triangle test is exact, so a ray outside the leaf's box just misses)."""
-    # the packet's extremes: origins, reciprocal directions (one sign per axis), t_min
-    oxl = oxh = rr[_OX, 0]
-    oyl = oyh = rr[_OY, 0]
-    ozl = ozh = rr[_OZ, 0]
-    ixl = ixh = rr[_IX, 0]
-    iyl = iyh = rr[_IY, 0]
-    izl = izh = rr[_IZ, 0]
-    tlo = rr[_TMIN, 0]
-    for k in range(1, PACKET):
-        oxl, oxh = min(oxl, rr[_OX, k]), max(oxh, rr[_OX, k])
-        oyl, oyh = min(oyl, rr[_OY, k]), max(oyh, rr[_OY, k])
-        ozl, ozh = min(ozl, rr[_OZ, k]), max(ozh, rr[_OZ, k])
-        ixl, ixh = min(ixl, rr[_IX, k]), max(ixh, rr[_IX, k])
-        iyl, iyh = min(iyl, rr[_IY, k]), max(iyh, rr[_IY, k])
-        izl, izh = min(izl, rr[_IZ, k]), max(izh, rr[_IZ, k])
-        tlo = min(tlo, rr[_TMIN, k])
+    # the packet's extremes (packet_setup): origins, reciprocal directions (one sign per axis), t_min
+    oxl, oxh, oyl, oyh, ozl, ozh = rr[_EXT, 0], rr[_EXT, 1], rr[_EXT, 2], rr[_EXT, 3], rr[_EXT, 4], rr[_EXT, 5]
+    ixl, ixh = rr[_EXT, _EXT_INV], rr[_EXT, _EXT_INV + 1]
+    iyl, iyh = rr[_EXT, _EXT_INV + 2], rr[_EXT, _EXT_INV + 3]
+    izl, izh = rr[_EXT, _EXT_INV + 4], rr[_EXT, _EXT_INV + 5]
+    tlo = rr[_EXT, _EXT_TMIN]
     # the origin extreme that minimises the near plane's distance and the one that maximises the far one's
     onx, ofx = (oxh, oxl) if nrx == 0 else (oxl, oxh)
     ony, ofy = (oyh, oyl) if nry == 4 else (oyl, oyh)
