@@ -65,6 +65,8 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                     rr[_BEST + k] = best
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                                 nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, False)
+                for k in range(PACKET):  # barycentrics of every ray in a loop that vectorises (0 / 1 without a hit)
+                    rr[_E1 + k], rr[_E2 + k] = rr[_E1 + k] / rr[_DET + k], rr[_E2 + k] / rr[_DET + k]
                 for k in range(PACKET):
                     i = idx[k]
                     pr = rr[_PRIM + k]  # triangle id, -(sphere + 1), or -inf: nothing in the tree was hit
@@ -72,8 +74,8 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                         t_out[i] = rr[_BEST + k]
                         kind_out[i] = TRIANGLE if pr >= 0.0 else SPHERE
                         prim_out[i] = np.int32(pr) if pr >= 0.0 else np.int32(-pr - 1.0)
-                        u_out[i] = rr[_E1 + k] / rr[_DET + k]
-                        v_out[i] = rr[_E2 + k] / rr[_DET + k]
+                        u_out[i] = rr[_E1 + k]
+                        v_out[i] = rr[_E2 + k]
                     elif pprims[k] >= 0:
                         t_out[i], kind_out[i], prim_out[i] = rr[_BEST + k], PLANE, pprims[k]
                         u_out[i], v_out[i] = 0.0, 0.0
