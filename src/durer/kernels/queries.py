@@ -40,12 +40,16 @@ def _write_hits(origins, directions, r0, m, t, kind, u, v, inst_out, prim_out, i
         if kj == MISS:
             normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = 0.0, 0.0, 0.0
             continue
-        ox, oy, oz, dx, dy, dz = ray_at(origins, directions, i)
-        normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = hit_normal(
-            ox, oy, oz, dx, dy, dz, t[j], inst_out[i], kj, prim_out[i], inst_shape, tri_off,
-            tri_normals, inst_w2o, inst_sign, sph_center)
-        if kj == SPHERE:
+        if kj == SPHERE:  # only a sphere's normal needs the world ray (read again from the user's arrays)
+            ox, oy, oz, dx, dy, dz = ray_at(origins, directions, i)
+            normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = hit_normal(
+                ox, oy, oz, dx, dy, dz, t[j], inst_out[i], kj, prim_out[i], inst_shape, tri_off,
+                tri_normals, inst_w2o, inst_sign, sph_center)
             prim_out[i] = 0
+        else:
+            normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = hit_normal(
+                0.0, 0.0, 0.0, 0.0, 0.0, 0.0, t[j], inst_out[i], kj, prim_out[i], inst_shape, tri_off,
+                tri_normals, inst_w2o, inst_sign, sph_center)
 
 
 @nb.njit(**JIT)
