@@ -335,7 +335,7 @@ def test_packets_only_for_rays_that_are_close():
     from durer.kernels.layout import PACKET
 
     idx = np.arange(PACKET)
-    rr = np.empty((_NROW, PACKET))
+    rr = np.empty(_NROW * PACKET)
     lo, hi = np.zeros(PACKET), np.full(PACKET, np.inf)
     o = np.zeros((PACKET, 3))
     s = np.linspace(0.0, 0.1, PACKET)
@@ -347,6 +347,30 @@ def test_packets_only_for_rays_that_are_close():
     assert not packet_setup(o, fan, lo, hi, idx, PACKET, rr, 1.0)[0]
     assert not packet_setup(spread, close, lo, hi, idx, PACKET, rr, 1.0)[0]
     assert packet_setup(spread, close, lo, hi, idx, PACKET, rr, 2.5)[0]
+
+
+def test_packet_extremes_are_the_extremes_of_each_rays_own_reciprocals():
+    """packet_setup takes the reciprocal directions' extremes as 1 / (extreme direction) (6 divisions a packet):
+    they must be, to the bit, the extremes of every ray's own 1 / d (a zero component as 1e-300, as the one-ray
+    slab test takes it), and the origins' and t_min's extremes those of the rays."""
+    from durer.kernels.bvh_packet import _EXT, _EXT_INV, _EXT_TMIN, _NROW, packet_setup
+    from durer.kernels.layout import PACKET
+
+    rng = np.random.default_rng(12)
+    idx = rng.permutation(PACKET)
+    d = np.stack([rng.uniform(0.0, 0.05, PACKET), rng.uniform(-0.3, -0.2, PACKET), rng.uniform(0.9, 1.1, PACKET)], 1)
+    d[5, 0] = 0.0
+    o = rng.uniform(-0.1, 0.1, (PACKET, 3))
+    lo, hi = rng.uniform(0.0, 0.5, PACKET), np.full(PACKET, np.inf)
+    rr = np.empty(_NROW * PACKET)
+    coherent, nrx, nry, nrz = packet_setup(o, d, lo, hi, idx, PACKET, rr, 1.0)[:4]
+    assert coherent and (nrx, nry, nrz) == (0, 16, 8)
+    ext = rr[_EXT:_EXT + PACKET]
+    inv = 1.0 / np.where(d != 0.0, d, 1e-300)
+    for axis in range(3):
+        assert (ext[2 * axis], ext[2 * axis + 1]) == (o[:, axis].min(), o[:, axis].max())
+        assert ext[_EXT_INV + 2 * axis] == inv[:, axis].min() and ext[_EXT_INV + 2 * axis + 1] == inv[:, axis].max()
+    assert ext[_EXT_INV + 1] == 1.0 / 1e-300 and ext[_EXT_TMIN] == lo.min()
 
 
 def test_incoherent_rays_sorted_by_octant_and_origin_equal_brute_force():

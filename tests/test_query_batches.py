@@ -64,6 +64,14 @@ def _all_queries(s: RaycastingScene, *rays, **kw) -> dict:
     return out
 
 
+FLOAT_OUTPUTS = ("t_hit", "primitive_uvs", "primitive_normals")  # cast_rays' outputs that follow the rays' type
+
+
+def _rounded(ref: dict) -> dict:
+    """cast_rays' float outputs of float64 rays rounded to float32: what the same rays given in float32 get."""
+    return {k: v.astype(np.float32) if k in FLOAT_OUTPUTS else v for k, v in ref.items()}
+
+
 def _assert_same(a: dict, b: dict) -> None:
     assert a.keys() == b.keys()
     for key in a:
@@ -74,19 +82,25 @@ def _assert_same(a: dict, b: dict) -> None:
 @pytest.mark.parametrize("name", ["alone", "moved", "world", "shared"])
 def test_float32_strided_and_six_column_rays_give_the_float64_answers(scenes, name):
     """Several bands (BAND rays each) of float32 rays, strided views and (N, 6) rows answer exactly as contiguous
-    float64 (N, 3) arrays of the same values, on every query and every scene path; the outputs keep their types."""
+    float64 (N, 3) arrays of the same values, on every query and every scene path: cast_rays' t, uvs and normals
+    in float32 for float32 rays (the float64 answers rounded once), every other output in its own type."""
     s = scenes[name]
     rays = _random_rays(2 * BAND + 123)
     ref = _all_queries(s, np.ascontiguousarray(rays[:, :3]), np.ascontiguousarray(rays[:, 3:]))
     assert 0.2 < np.isfinite(ref["t_hit"]).mean() < 0.9
     assert ref["t_hit"].dtype == np.float64 and ref["primitive_ids"].dtype == np.int32
+    assert ref["list_t_hit"].dtype == np.float64
     r32 = rays.astype(np.float32)
-    _assert_same(_all_queries(s, r32), ref)
-    _assert_same(_all_queries(s, r32[:, :3], r32[:, 3:]), ref)
+    got = _all_queries(s, r32)
+    assert {got[k].dtype for k in FLOAT_OUTPUTS} == {np.dtype(np.float32)}
+    assert (got["primitive_uvs"] != ref["primitive_uvs"]).any()  # the rounding is there to see
+    _assert_same(got, _rounded(ref))
+    _assert_same(_all_queries(s, r32[:, :3], r32[:, 3:]), _rounded(ref))
+    _assert_same(_all_queries(s, r32[:, :3], rays[:, 3:]), ref)  # one float64 array: float64 outputs
     _assert_same(_all_queries(s, np.asfortranarray(rays[:, :3]), np.asfortranarray(rays[:, 3:])), ref)
     every_other = np.empty((2 * len(rays), 6), np.float32)
     every_other[::2] = r32
-    _assert_same(_all_queries(s, every_other[::2]), ref)  # rows 48 bytes apart
+    _assert_same(_all_queries(s, every_other[::2]), _rounded(ref))  # rows 48 bytes apart
 
 
 @pytest.mark.parametrize("name", ["alone", "world", "shared"])
@@ -147,7 +161,7 @@ def test_errors_are_found_in_any_band_and_the_first_is_named(scenes, name):
 
 def test_cast_rays_allocates_its_outputs_and_little_else(scenes):
     """No ray-sized copies of the input: the peak of NumPy's allocations during cast_rays on float32 rays is the
-    outputs (56 bytes a ray) plus a little that does not grow with the batch (flat_image_width's probe of the
+    outputs (32 bytes a ray: t, uvs and normals in float32, ids in int32) plus a little that does not grow with the batch (flat_image_width's probe of the
     first 16k rays, ~2 MB); the copies and per-ray t ranges this replaced were ~100 bytes a ray."""
     s = scenes["alone"]
     rays = _random_rays(64 * BAND).astype(np.float32)
@@ -158,5 +172,5 @@ def test_cast_rays_allocates_its_outputs_and_little_else(scenes):
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    outputs = len(rays) * (8 + 4 + 4 + 16 + 24)
+    outputs = len(rays) * (4 + 4 + 4 + 8 + 12)
     assert outputs <= peak < outputs * 1.02 + 2_500_000

@@ -45,6 +45,13 @@ class RayBatch:
     def __len__(self) -> int:
         return self.origins.shape[0]
 
+    @property
+    def out_dtype(self) -> type:
+        """The float type of cast_rays' t, uvs and normals: float32 when the rays are (Open3D's and Embree's
+        outputs), else float64."""
+        both32 = self.origins.dtype == np.float32 and self.directions.dtype == np.float32
+        return np.float32 if both32 else np.float64
+
     def band(self) -> int:
         return band_size(self.width)
 
@@ -77,10 +84,12 @@ def _one_level(tree: TwoLevelBVH) -> tuple | None:
 
 def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
     """RaycastingScene.cast_rays' arrays, flat: t_hit, geometry_ids, primitive_ids, primitive_uvs (N, 2),
-    primitive_normals (N, 3)."""
-    n = len(rays)
-    t, inst, prim = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32)
-    uv, normals = np.empty((n, 2)), np.empty((n, 3))
+    primitive_normals (N, 3); t, uvs and normals in rays.out_dtype (computed in float64, rounded once when float32).
+    The outputs are left untouched here: the work item that computes a band writes it first (its pages fault in
+    on that thread, once)."""
+    n, ft = len(rays), rays.out_dtype
+    t, inst, prim = np.empty(n, ft), np.empty(n, np.int32), np.empty(n, np.int32)
+    uv, normals = np.empty((n, 2), ft), np.empty((n, 3), ft)
     if not tree.instances:
         rays.run(check_bands, _IDENTITY, rays.band())
         t[:], inst[:], prim[:], uv[:], normals[:] = np.inf, INVALID_ID, INVALID_ID, 0.0, 0.0

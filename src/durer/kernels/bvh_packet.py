@@ -37,10 +37,18 @@ from .layout import (
 )
 from .small_sort import insert_ascending
 
-# Scratch rows of `rr` (float64, (_NROW, PACKET)):
-(_OX, _OY, _OZ, _IX, _IY, _IZ, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
- _PRIM) = range(21)
-_NROW = 21
+# The packet's scratch `rr`: a flat float64 array of _NROW rows of PACKET, row r at offset r * PACKET, so ray k of
+# row _X is rr[_X + k] (the names below are offsets) and a row picked at run time (axis a after _DX) is
+# rr[_DX + a * PACKET + k]. Flat, every address is a constant offset from one pointer, so LLVM sees that the rows
+# do not overlap and vectorises the loops over rays without run-time checks (a 2-D (_NROW, PACKET) array has a
+# run-time row stride: measured 1.3x slower traversal). Per ray, but for _EXT, the packet's extremes
+# (packet_setup): columns 0-5 the origins' lo, hi on x, y, z; 6-11 the reciprocal directions' lo, hi; 12 the
+# lowest t_min.
+_NROW = 19
+(_OX, _OY, _OZ, _EXT, _TMIN, _BEST, _OKX, _OKY, _OKZ, _SX, _SY, _SZ, _E1, _E2, _DET, _DX, _DY, _DZ,
+ _PRIM) = range(0, _NROW * PACKET, PACKET)
+_EXT_INV = 6   # column of the reciprocal directions' extremes in _EXT
+_EXT_TMIN = 12  # column of the lowest t_min in _EXT
 
 
 @nb.njit(**JIT, inline="always")
@@ -63,64 +71,115 @@ def chunk_rays(c, n, width, idx):
     return PACKET
 
 
+@nb.njit(**JIT, inline="always")
+def _pick(axis, x, y, z):
+    """x, y or z by axis 0, 1 or 2."""
+    return x if axis == 0 else (y if axis == 1 else z)
+
+
+@nb.njit(**JIT, inline="always")
+def _nonzero(x):
+    """A direction component as the slab test takes it: 0 as 1e-300 (ray_setup's reciprocal of 1e300)."""
+    return x if x != 0.0 else 1e-300
+
+
 @nb.njit(**JIT)
 def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
     """Load rays idx[:n] into the scratch rows (padding rays never hit) and return (coherent, nrx, nry, nrz,
     kx, ky, kz): coherent when all n rays share direction signs and axis permutation, their directions lie
     within PACKET_CONE of the first ray's and their origins within max_spread of each other (packet_spread_limit)
-    on every axis. Only then are the per-ray constants computed (in a loop over rays that vectorises, with
-    ray_setup's exact operations)."""
+    on every axis. Only then are the per-ray constants computed, with ray_setup's exact operations. Each loop
+    reads and writes few rows, so that LLVM vectorises it (one loop writing every row was left scalar: too many
+    arrays to check for overlap)."""
     i0 = idx[0]
     dx0, dy0, dz0 = directions[i0, 0], directions[i0, 1], directions[i0, 2]
     kx0, ky0, kz0 = shear_axes(dx0, dy0, dz0)
     s0 = (dx0 < 0.0) + 2 * (dy0 < 0.0) + 4 * (dz0 < 0.0)
     cone0 = PACKET_CONE * np.sqrt(dx0 * dx0 + dy0 * dy0 + dz0 * dz0)
-    coherent = True
     for k in range(PACKET):
         i = idx[k] if k < n else i0
-        dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
-        kx, ky, kz = shear_axes(dx, dy, dz)
+        rr[_DX + k], rr[_DY + k], rr[_DZ + k] = directions[i, 0], directions[i, 1], directions[i, 2]
+    bad = 0
+    for k in range(PACKET):
+        dx, dy, dz = rr[_DX + k], rr[_DY + k], rr[_DZ + k]
+        ax, ay, az = abs(dx), abs(dy), abs(dz)
+        kz = 0 if (ax >= ay) & (ax >= az) else (1 if ay >= az else 2)  # shear_axes' kz; kx, ky follow the signs
         sgn = (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0)
-        if (sgn != s0 or kx != kx0 or ky != ky0 or kz != kz0
-                or dx * dx0 + dy * dy0 + dz * dz0 < cone0 * np.sqrt(dx * dx + dy * dy + dz * dz)):
-            coherent = False
-            break
-        rr[_OX, k], rr[_OY, k], rr[_OZ, k] = origins[i, 0], origins[i, 1], origins[i, 2]
-        rr[_DX, k], rr[_DY, k], rr[_DZ, k] = dx, dy, dz
-        if k < n:
-            rr[_TMIN, k], rr[_BEST, k] = t_min[i], t_max[i]
-        else:
-            rr[_TMIN, k], rr[_BEST, k] = np.inf, -np.inf
-    if coherent:
-        for row in (_OX, _OY, _OZ):
-            lo = hi = rr[row, 0]
-            for k in range(1, PACKET):
-                lo, hi = min(lo, rr[row, k]), max(hi, rr[row, k])
-            if hi - lo > max_spread:
-                coherent = False
-    if not coherent:
+        bad += ((sgn != s0) | (kz != kz0)
+                | (dx * dx0 + dy * dy0 + dz * dz0 < cone0 * np.sqrt(dx * dx + dy * dy + dz * dz)))
+    if bad:
         return False, 0, 4, 8, kx0, ky0, kz0
     for k in range(PACKET):
-        dx, dy, dz = rr[_DX, k], rr[_DY, k], rr[_DZ, k]
-        rr[_IX, k] = 1.0 / (dx if dx != 0.0 else 1e-300)
-        rr[_IY, k] = 1.0 / (dy if dy != 0.0 else 1e-300)
-        rr[_IZ, k] = 1.0 / (dz if dz != 0.0 else 1e-300)
-        dkz = rr[_DX + kz0, k]
-        rr[_SX, k] = rr[_DX + kx0, k] / dkz
-        rr[_SY, k] = rr[_DX + ky0, k] / dkz
-        rr[_SZ, k] = 1.0 / dkz
-        rr[_OKX, k] = rr[_OX + kx0, k]
-        rr[_OKY, k] = rr[_OX + ky0, k]
-        rr[_OKZ, k] = rr[_OX + kz0, k]
-        rr[_E1, k] = 0.0
-        rr[_E2, k] = 0.0
-        rr[_DET, k] = 1.0
-        rr[_PRIM, k] = -np.inf
+        i = idx[k] if k < n else i0
+        rr[_OX + k], rr[_OY + k], rr[_OZ + k] = origins[i, 0], origins[i, 1], origins[i, 2]
+        if k < n:
+            rr[_TMIN + k], rr[_BEST + k] = t_min[i], t_max[i]
+        else:
+            rr[_TMIN + k], rr[_BEST + k] = np.inf, -np.inf
+    for axis in range(3):
+        lo = hi = rr[_OX + axis * PACKET]
+        for k in range(1, PACKET):
+            lo, hi = min(lo, rr[_OX + axis * PACKET + k]), max(hi, rr[_OX + axis * PACKET + k])
+        if hi - lo > max_spread:
+            return False, 0, 4, 8, kx0, ky0, kz0
+        rr[_EXT + 2 * axis], rr[_EXT + 2 * axis + 1] = lo, hi
+    # the reciprocal directions' extremes (a zero component as 1e-300, as ray_setup takes it): the rays share each
+    # component's sign and 1 / x falls with x on either side of 0, rounding included, so the extremes of the
+    # rounded reciprocals are the reciprocals of the extremes: 6 divisions a packet, not 48, and the same bits
+    for axis in range(3):
+        lo = hi = _nonzero(rr[_DX + axis * PACKET])
+        for k in range(1, PACKET):
+            dk = _nonzero(rr[_DX + axis * PACKET + k])
+            lo, hi = min(lo, dk), max(hi, dk)
+        rr[_EXT + _EXT_INV + 2 * axis], rr[_EXT + _EXT_INV + 2 * axis + 1] = 1.0 / hi, 1.0 / lo
+    tlo = rr[_TMIN]
+    for k in range(1, PACKET):
+        tlo = min(tlo, rr[_TMIN + k])
+    rr[_EXT + _EXT_TMIN] = tlo
+    for k in range(PACKET):  # rows by selects, not run-time offsets, so LLVM sees no overlap and vectorises
+        dx, dy, dz = rr[_DX + k], rr[_DY + k], rr[_DZ + k]
+        ox, oy, oz = rr[_OX + k], rr[_OY + k], rr[_OZ + k]
+        dkz = _pick(kz0, dx, dy, dz)
+        rr[_SX + k] = _pick(kx0, dx, dy, dz) / dkz
+        rr[_SY + k] = _pick(ky0, dx, dy, dz) / dkz
+        rr[_SZ + k] = 1.0 / dkz
+        rr[_OKX + k] = _pick(kx0, ox, oy, oz)
+        rr[_OKY + k] = _pick(ky0, ox, oy, oz)
+        rr[_OKZ + k] = _pick(kz0, ox, oy, oz)
+        rr[_E1 + k] = 0.0
+        rr[_E2 + k] = 0.0
+        rr[_DET + k] = 1.0
+        rr[_PRIM + k] = -np.inf
     # near-plane row offsets as in ray_setup (a zero component counts as positive there too)
-    nrx = 12 if rr[_IX, 0] < 0.0 else 0
-    nry = 16 if rr[_IY, 0] < 0.0 else 4
-    nrz = 20 if rr[_IZ, 0] < 0.0 else 8
+    nrx = 12 if rr[_EXT + _EXT_INV] < 0.0 else 0
+    nry = 16 if rr[_EXT + _EXT_INV + 2] < 0.0 else 4
+    nrz = 20 if rr[_EXT + _EXT_INV + 4] < 0.0 else 8
     return True, nrx, nry, nrz, kx0, ky0, kz0
+
+
+@nb.njit(**JIT, inline="always")
+def _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, rr):
+    """Whether any of the packet's rays passes the watertight test's edge test of the triangle (the sheared
+    vertices' edge functions share a sign, as in _packet_leaf, to the bit): most triangles of a leaf miss every
+    ray of a 4 x 4 tile, and this loop (no division, no stores) lets _packet_leaf skip them."""
+    inside = 0
+    for k in range(PACKET):
+        okx, oky, okz = rr[_OKX + k], rr[_OKY + k], rr[_OKZ + k]
+        sx, sy = rr[_SX + k], rr[_SY + k]
+        az = az0 - okz
+        bz = bz0 - okz
+        cz = cz0 - okz
+        ax = (ax0 - okx) - sx * az
+        ay = (ay0 - oky) - sy * az
+        bx = (bx0 - okx) - sx * bz
+        by = (by0 - oky) - sy * bz
+        cx = (cx0 - okx) - sx * cz
+        cy = (cy0 - oky) - sy * cz
+        e0 = cx * by - cy * bx
+        e1 = ax * cy - ay * cx
+        e2 = bx * ay - by * ax
+        inside += ~(((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0)))
+    return inside > 0
 
 
 @nb.njit(**JIT, inline="always")
@@ -136,9 +195,11 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
             ax0, ay0, az0 = leaf_tri[base + kx], leaf_tri[base + ky], leaf_tri[base + kz]
             bx0, by0, bz0 = leaf_tri[base + 3 + kx], leaf_tri[base + 3 + ky], leaf_tri[base + 3 + kz]
             cx0, cy0, cz0 = leaf_tri[base + 6 + kx], leaf_tri[base + 6 + ky], leaf_tri[base + 6 + kz]
+            if not _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, rr):
+                continue
             for k in range(PACKET):
-                okx, oky, okz = rr[_OKX, k], rr[_OKY, k], rr[_OKZ, k]
-                sx, sy, sz = rr[_SX, k], rr[_SY, k], rr[_SZ, k]
+                okx, oky, okz = rr[_OKX + k], rr[_OKY + k], rr[_OKZ + k]
+                sx, sy, sz = rr[_SX + k], rr[_SY + k], rr[_SZ + k]
                 az = az0 - okz
                 bz = bz0 - okz
                 cz = cz0 - okz
@@ -153,32 +214,32 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                 e2 = bx * ay - by * ax
                 det = e0 + e1 + e2
                 t = sz * (e0 * az + e1 * bz + e2 * cz) / det
-                best = rr[_BEST, k]
-                ok = ((det != 0.0) & (rr[_TMIN, k] < t) & (t < best)
+                best = rr[_BEST + k]
+                ok = ((det != 0.0) & (rr[_TMIN + k] < t) & (t < best)
                       & ~(((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0))))
                 if any_mode:
-                    rr[_BEST, k] = -np.inf if ok else best
+                    rr[_BEST + k] = -np.inf if ok else best
                 else:
-                    rr[_BEST, k] = t if ok else best
-                    rr[_E1, k] = e1 if ok else rr[_E1, k]
-                    rr[_E2, k] = e2 if ok else rr[_E2, k]
-                    rr[_DET, k] = det if ok else rr[_DET, k]
-                    rr[_PRIM, k] = fp if ok else rr[_PRIM, k]
+                    rr[_BEST + k] = t if ok else best
+                    rr[_E1 + k] = e1 if ok else rr[_E1 + k]
+                    rr[_E2 + k] = e2 if ok else rr[_E2 + k]
+                    rr[_DET + k] = det if ok else rr[_DET + k]
+                    rr[_PRIM + k] = fp if ok else rr[_PRIM + k]
         else:
             s = -p - 1
             for k in range(PACKET):
-                if rr[_BEST, k] > -np.inf:
-                    best = rr[_BEST, k]
-                    t = sphere_hit_in_object_space((rr[_OX, k], rr[_OY, k], rr[_OZ, k]),
-                                                   (rr[_DX, k], rr[_DY, k], rr[_DZ, k]), sph_center[s],
-                                                   sph_radius[s], sph_w2o[s], rr[_TMIN, k], best)
+                if rr[_BEST + k] > -np.inf:
+                    best = rr[_BEST + k]
+                    t = sphere_hit_in_object_space((rr[_OX + k], rr[_OY + k], rr[_OZ + k]),
+                                                   (rr[_DX + k], rr[_DY + k], rr[_DZ + k]), sph_center[s],
+                                                   sph_radius[s], sph_w2o[s], rr[_TMIN + k], best)
                     if t < best:
                         if any_mode:
-                            rr[_BEST, k] = -np.inf
+                            rr[_BEST + k] = -np.inf
                         else:
-                            rr[_BEST, k] = t
-                            rr[_E1, k], rr[_E2, k], rr[_DET, k] = 0.0, 0.0, 1.0
-                            rr[_PRIM, k] = -(s + 1.0)
+                            rr[_BEST + k] = t
+                            rr[_E1 + k], rr[_E2 + k], rr[_DET + k] = 0.0, 0.0, 1.0
+                            rr[_PRIM + k] = -(s + 1.0)
 
 
 @nb.njit(**JIT)
@@ -189,22 +250,12 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
     conservative to the bit), children are ordered by the packet's entry distance, which the stack keeps: a
     node is skipped when it lies beyond every ray's closest hit so far. Leaves met in a node are tested at once,
     against all the packet's rays (the triangle test is exact, so a ray outside the leaf's box just misses)."""
-    # the packet's extremes: origins, reciprocal directions (one sign per axis), t_min
-    oxl = oxh = rr[_OX, 0]
-    oyl = oyh = rr[_OY, 0]
-    ozl = ozh = rr[_OZ, 0]
-    ixl = ixh = rr[_IX, 0]
-    iyl = iyh = rr[_IY, 0]
-    izl = izh = rr[_IZ, 0]
-    tlo = rr[_TMIN, 0]
-    for k in range(1, PACKET):
-        oxl, oxh = min(oxl, rr[_OX, k]), max(oxh, rr[_OX, k])
-        oyl, oyh = min(oyl, rr[_OY, k]), max(oyh, rr[_OY, k])
-        ozl, ozh = min(ozl, rr[_OZ, k]), max(ozh, rr[_OZ, k])
-        ixl, ixh = min(ixl, rr[_IX, k]), max(ixh, rr[_IX, k])
-        iyl, iyh = min(iyl, rr[_IY, k]), max(iyh, rr[_IY, k])
-        izl, izh = min(izl, rr[_IZ, k]), max(izh, rr[_IZ, k])
-        tlo = min(tlo, rr[_TMIN, k])
+    # the packet's extremes (packet_setup): origins, reciprocal directions (one sign per axis), t_min
+    oxl, oxh, oyl, oyh, ozl, ozh = rr[_EXT], rr[_EXT + 1], rr[_EXT + 2], rr[_EXT + 3], rr[_EXT + 4], rr[_EXT + 5]
+    ixl, ixh = rr[_EXT + _EXT_INV], rr[_EXT + _EXT_INV + 1]
+    iyl, iyh = rr[_EXT + _EXT_INV + 2], rr[_EXT + _EXT_INV + 3]
+    izl, izh = rr[_EXT + _EXT_INV + 4], rr[_EXT + _EXT_INV + 5]
+    tlo = rr[_EXT + _EXT_TMIN]
     # the origin extreme that minimises the near plane's distance and the one that maximises the far one's
     onx, ofx = (oxh, oxl) if nrx == 0 else (oxl, oxh)
     ony, ofy = (oyh, oyl) if nry == 4 else (oyl, oyh)
@@ -269,7 +320,7 @@ def _packet_far(rr):
     """The farthest closest-hit-so-far among the packet's rays (-inf once all have retired)."""
     far = -np.inf
     for k in range(PACKET):
-        b = rr[_BEST, k]
+        b = rr[_BEST + k]
         far = b if b > far else far
     return far
 

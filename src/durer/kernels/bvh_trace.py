@@ -36,7 +36,7 @@ from .layout import BLOCK, JIT, MISS, PACKET, PLANE, SPHERE, TILE, TRIANGLE, pac
 def scratch(stack_size):
     """Per-call scratch of the one-level kernels, allocated once and reused by every packet and ray: the stack
     (nodes, entry distances), the one-ray lane distances, the packet rows, the packet's child order, ray indices."""
-    return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(4), np.empty((_NROW, PACKET)),
+    return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(4), np.empty(_NROW * PACKET),
             np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64))
 
 
@@ -59,23 +59,25 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
             coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
             if coherent and m == PACKET:
                 for k in range(PACKET):
-                    best, pprims[k] = planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
-                                                      rr[_DX, k], rr[_DY, k], rr[_DZ, k], rr[_TMIN, k],
-                                                      rr[_BEST, k])
-                    rr[_BEST, k] = best
+                    best, pprims[k] = planes_closest(pl_normal, pl_offset, rr[_OX + k], rr[_OY + k], rr[_OZ + k],
+                                                      rr[_DX + k], rr[_DY + k], rr[_DZ + k], rr[_TMIN + k],
+                                                      rr[_BEST + k])
+                    rr[_BEST + k] = best
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                                 nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, False)
+                for k in range(PACKET):  # barycentrics of every ray in a loop that vectorises (0 / 1 without a hit)
+                    rr[_E1 + k], rr[_E2 + k] = rr[_E1 + k] / rr[_DET + k], rr[_E2 + k] / rr[_DET + k]
                 for k in range(PACKET):
                     i = idx[k]
-                    pr = rr[_PRIM, k]  # triangle id, -(sphere + 1), or -inf: nothing in the tree was hit
+                    pr = rr[_PRIM + k]  # triangle id, -(sphere + 1), or -inf: nothing in the tree was hit
                     if pr > -np.inf:
-                        t_out[i] = rr[_BEST, k]
+                        t_out[i] = rr[_BEST + k]
                         kind_out[i] = TRIANGLE if pr >= 0.0 else SPHERE
                         prim_out[i] = np.int32(pr) if pr >= 0.0 else np.int32(-pr - 1.0)
-                        u_out[i] = rr[_E1, k] / rr[_DET, k]
-                        v_out[i] = rr[_E2, k] / rr[_DET, k]
+                        u_out[i] = rr[_E1 + k]
+                        v_out[i] = rr[_E2 + k]
                     elif pprims[k] >= 0:
-                        t_out[i], kind_out[i], prim_out[i] = rr[_BEST, k], PLANE, pprims[k]
+                        t_out[i], kind_out[i], prim_out[i] = rr[_BEST + k], PLANE, pprims[k]
                         u_out[i], v_out[i] = 0.0, 0.0
                     else:
                         t_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = np.inf, MISS, -1, 0.0, 0.0
@@ -112,14 +114,14 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
             coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
             if coherent and m == PACKET:
                 for k in range(PACKET):
-                    _, pprim = planes_closest(pl_normal, pl_offset, rr[_OX, k], rr[_OY, k], rr[_OZ, k],
-                                               rr[_DX, k], rr[_DY, k], rr[_DZ, k], rr[_TMIN, k], rr[_BEST, k])
+                    _, pprim = planes_closest(pl_normal, pl_offset, rr[_OX + k], rr[_OY + k], rr[_OZ + k],
+                                               rr[_DX + k], rr[_DY + k], rr[_DZ + k], rr[_TMIN + k], rr[_BEST + k])
                     if pprim >= 0:
-                        rr[_BEST, k] = -np.inf
+                        rr[_BEST + k] = -np.inf
                 packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                                 nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, True)
                 for k in range(PACKET):
-                    out[idx[k]] = rr[_BEST, k] == -np.inf
+                    out[idx[k]] = rr[_BEST + k] == -np.inf
                 continue
             for q in range(m):
                 i = idx[q]

@@ -26,20 +26,30 @@ def n_blocks_of(m):
 
 
 @nb.njit(**JIT, inline="always")
-def _write_hits(origins, directions, r0, m, t_out, inst_out, prim_out, kind, u, v, inst_shape, tri_off,
-                tri_normals, inst_w2o, inst_sign, sph_center, uv_out, normal_out):
-    """Finish rays r0..r0+m whose t, instance and (shape-local) primitive ids are in the outputs and whose kind,
-    u, v are in band scratch: barycentrics, world-space normals (instances.hit_normal, from the world ray), and
-    primitive 0 for a sphere."""
+def _write_hits(origins, directions, r0, m, t, kind, u, v, inst_out, prim_out, inst_shape, tri_off, tri_normals,
+                inst_w2o, inst_sign, sph_center, t_out, uv_out, normal_out):
+    """Finish rays r0..r0+m, whose instance and (shape-local) primitive ids are in the outputs and whose t, kind,
+    u, v are in band scratch (float64): t, barycentrics and world-space normals (instances.hit_normal, from the
+    world ray) computed in float64 and stored in the outputs' type (float32 outputs get them rounded once), and
+    primitive 0 for a sphere. One pass over the band, while its scratch is in cache."""
     for j in range(m):
         i = r0 + j
-        ox, oy, oz, dx, dy, dz = ray_at(origins, directions, i)
+        t_out[i] = t[j]
         uv_out[i, 0], uv_out[i, 1] = u[j], v[j]
-        normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = hit_normal(
-            ox, oy, oz, dx, dy, dz, t_out[i], inst_out[i], kind[j], prim_out[i], inst_shape, tri_off,
-            tri_normals, inst_w2o, inst_sign, sph_center)
-        if kind[j] == SPHERE:
+        kj = kind[j]
+        if kj == MISS:
+            normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = 0.0, 0.0, 0.0
+            continue
+        if kj == SPHERE:  # only a sphere's normal needs the world ray (read again from the user's arrays)
+            ox, oy, oz, dx, dy, dz = ray_at(origins, directions, i)
+            normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = hit_normal(
+                ox, oy, oz, dx, dy, dz, t[j], inst_out[i], kj, prim_out[i], inst_shape, tri_off,
+                tri_normals, inst_w2o, inst_sign, sph_center)
             prim_out[i] = 0
+        else:
+            normal_out[i, 0], normal_out[i, 1], normal_out[i, 2] = hit_normal(
+                0.0, 0.0, 0.0, 0.0, 0.0, 0.0, t[j], inst_out[i], kj, prim_out[i], inst_shape, tri_off,
+                tri_normals, inst_w2o, inst_sign, sph_center)
 
 
 @nb.njit(**JIT)
@@ -54,13 +64,13 @@ def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
     hit is instance 0's. Bands k0..k1 of `band` rays; first[k]: band k's problems (rays.load_band)."""
     mapped = tri_inst.shape[0] + sph_inst.shape[0] > 0
     o, d, lo, hi = band_scratch(band)
-    kind, u, v = np.empty(band, np.int8), np.empty(band), np.empty(band)
+    t, kind, u, v = np.empty(band), np.empty(band, np.int8), np.empty(band), np.empty(band)
     for k in range(k0, k1):
         r0, m, clean = load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, hi, first)
         if not clean:
             continue
         closest_hit_bvh(o[:m], d[:m], lo[:m], hi[:m], bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius,
-                        sph_w2o, pl_normal, pl_offset, stack_size, width, t_out[r0:r0 + m], kind[:m],
+                        sph_w2o, pl_normal, pl_offset, stack_size, width, t[:m], kind[:m],
                         prim_out[r0:r0 + m], u[:m], v[:m], 0, n_blocks_of(m))
         for j in range(m):
             i = r0 + j
@@ -73,8 +83,8 @@ def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
                 inst_out[i], prim_out[i] = tri_inst[p], tri_local[p]
             else:
                 inst_out[i], prim_out[i] = sph_inst[p], sph_prim[p]
-        _write_hits(origins, directions, r0, m, t_out, inst_out, prim_out, kind, u, v, inst_shape, tri_off,
-                    tri_normals, inst_w2o, inst_sign, blas_sph_center, uv_out, normal_out)
+        _write_hits(origins, directions, r0, m, t, kind, u, v, inst_out, prim_out, inst_shape, tri_off, tri_normals,
+                    inst_w2o, inst_sign, blas_sph_center, t_out, uv_out, normal_out)
 
 
 @nb.njit(**JIT)
@@ -84,17 +94,17 @@ def closest_two_level(origins, directions, t_min, t_max, top_bounds, top_child, 
                       t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
     """cast_rays through the two-level tree (instances.closest_hit_instances), when a shape is placed twice."""
     o, d, lo, hi = band_scratch(band)
-    kind, u, v = np.empty(band, np.int8), np.empty(band), np.empty(band)
+    t, kind, u, v = np.empty(band), np.empty(band, np.int8), np.empty(band), np.empty(band)
     for k in range(k0, k1):
         r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
         if not clean:
             continue
         closest_hit_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
                               bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                              t_out[r0:r0 + m], inst_out[r0:r0 + m], kind[:m], prim_out[r0:r0 + m], u[:m], v[:m], 0,
+                              t[:m], inst_out[r0:r0 + m], kind[:m], prim_out[r0:r0 + m], u[:m], v[:m], 0,
                               n_blocks_of(m))
-        _write_hits(origins, directions, r0, m, t_out, inst_out, prim_out, kind, u, v, inst_shape, tri_off,
-                    tri_normals, inst_w2o, inst_sign, sph_center, uv_out, normal_out)
+        _write_hits(origins, directions, r0, m, t, kind, u, v, inst_out, prim_out, inst_shape, tri_off, tri_normals,
+                    inst_w2o, inst_sign, sph_center, t_out, uv_out, normal_out)
 
 
 @nb.njit(**JIT)
