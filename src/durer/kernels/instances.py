@@ -71,77 +71,54 @@ def hit_normal(ox, oy, oz, dx, dy, dz, t, k, kind, prim, inst_shape, tri_off, tr
     return nx, ny, nz
 
 
-@nb.njit(**JIT)
-def closest_hit_instances(origins, directions, t_min, t_max,
-                          top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                          bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                          t_out, inst_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
-    """Closest hit of each ray (in blocks blk0..blk1, see threads.run_blocks) over all instances: t (inf on a
-    miss), instance (-1), kind, prim, u, v."""
-    n = origins.shape[0]
-    top_node = np.empty(stack_size, np.int32)
-    top_t = np.empty(stack_size)
-    stack_node = np.empty(stack_size, np.int32)
-    stack_t = np.empty(stack_size)
-    dist = np.empty(4)
-    for i in range(blk0 * RAYS_PER_BLOCK, min(n, blk1 * RAYS_PER_BLOCK)):
-        ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
-        lo = t_min[i]
-        best = t_max[i]
-        b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
-        idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
-        node, sp = 0, 0  # the top-level tree's root
-        while True:
-            leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx,
-                               idy, idz, lo, best, dist)
-            if leaf != 0:
-                first, end = leaf_range(leaf)
-                for j in range(first, end):
-                    k = top_leaf[j]
-                    px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
-                    t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
-                                                       sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
-                                                       lo, best, stack_node, stack_t, dist)
-                    if kind != 0:
-                        best = t
-                        b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
-            node, sp = pop_closer(top_node, top_t, sp, best)
-            if node == 0:
-                break
-        t_out[i], inst_out[i], kind_out[i] = (best if b_kind != 0 else np.inf), b_inst, b_kind
-        prim_out[i], u_out[i], v_out[i] = b_prim, b_u, b_v
-
-
-@nb.njit(**JIT)
-def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, out, blk0, blk1):
-    """out[i] = whether ray i (in blocks blk0..blk1) hits any instance with t_min < t < t_max; the first hit ends
-    the search."""
-    n = origins.shape[0]
-    top_node = np.empty(stack_size, np.int32)
-    stack_node = np.empty(stack_size, np.int32)
-    dist = np.empty(4)
-    for i in range(blk0 * RAYS_PER_BLOCK, min(n, blk1 * RAYS_PER_BLOCK)):
-        ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
-        lo, hi = t_min[i], t_max[i]
-        idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
-        hit = False
-        top_node[0] = 0
-        sp = 1
-        while not hit:
-            leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
-                                 lo, hi, dist)
-            if leaf == 0:
-                break
+@nb.njit(**JIT, inline="always")
+def closest_instance_ray(ox, oy, oz, dx, dy, dz, lo, best, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                         bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                         top_node, top_t, stack_node, stack_t, dist):
+    """Closest hit of one ray over all instances, nearest instance box first: (t (inf on a miss), instance (-1),
+    kind, prim, u, v). top_node / top_t and stack_node / stack_t are the two levels' stacks (scratch)."""
+    b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
+    idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+    node, sp = 0, 0  # the top-level tree's root
+    while True:
+        leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx,
+                           idy, idz, lo, best, dist)
+        if leaf != 0:
             first, end = leaf_range(leaf)
             for j in range(first, end):
                 k = top_leaf[j]
                 px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
-                if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                            px, py, pz, qx, qy, qz, lo, hi, stack_node, dist):
-                    hit = True
-                    break
-        out[i] = hit
+                t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
+                                                   sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
+                                                   lo, best, stack_node, stack_t, dist)
+                if kind != 0:
+                    best = t
+                    b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
+        node, sp = pop_closer(top_node, top_t, sp, best)
+        if node == 0:
+            break
+    return (best if b_kind != 0 else np.inf), b_inst, b_kind, b_prim, b_u, b_v
+
+
+@nb.njit(**JIT, inline="always")
+def any_instance_ray(ox, oy, oz, dx, dy, dz, lo, hi, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                     bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node, stack_node, dist):
+    """Whether one ray hits any instance with lo < t < hi; the first hit ends the search."""
+    idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+    top_node[0] = 0
+    sp = 1
+    while True:
+        leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
+                             lo, hi, dist)
+        if leaf == 0:
+            return False
+        first, end = leaf_range(leaf)
+        for j in range(first, end):
+            k = top_leaf[j]
+            px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+            if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                        px, py, pz, qx, qy, qz, lo, hi, stack_node, dist):
+                return True
 
 
 @nb.njit(**JIT)

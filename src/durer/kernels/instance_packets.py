@@ -1,0 +1,219 @@
+"""The two-level entry kernels (Numba): rays through meshes placed more than once, in packets where coherent.
+
+Rays go in chunks of PACKET (consecutive rays, or 4 x 4 tiles of an image `width` wide, as bvh_trace's one-level
+kernels take them). A coherent chunk walks the top-level tree over instances as a packet (bvh_packet's node
+step); at an instance leaf its rays are moved into the instance's object space with instances.to_object's
+arithmetic, so t stays what the one-ray two-level path computes, and the bottom-level tree is traversed with
+bvh_packet.packet_traverse when the moved rays still share direction signs and shear axes (a rotation can
+change the largest component), else one ray at a time through that instance. Incoherent chunks take the one-ray
+walk of instances.py. Every ray does the one-ray path's arithmetic, so t, u, v agree to the bit; only the visit
+order differs, which can change the primitive or instance named on an exact tie in t.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .bvh_packet import (
+    _BEST,
+    _DET,
+    _DX,
+    _DY,
+    _DZ,
+    _E1,
+    _E2,
+    _NROW,
+    _OX,
+    _OY,
+    _OZ,
+    _PRIM,
+    _TMIN,
+    chunk_rays,
+    packet_children,
+    packet_constants,
+    packet_extremes,
+    packet_far,
+    packet_setup,
+    packet_traverse,
+    push_inner,
+)
+from .bvh_single import blas_any, blas_closest, load_ray
+from .instances import any_instance_ray, closest_instance_ray, to_object
+from .intersect import shear_axes
+from .layout import BLOCK, FAR_WIDEN, JIT, PACKET, SPHERE, TRIANGLE, leaf_range, packet_spread_limit
+
+
+@nb.njit(**JIT, inline="always")
+def _scratch(stack_size):
+    """Per-call scratch: both levels' stacks (nodes, entry distances), the one-ray lane distances, the world
+    and object-space packet rows, both levels' child orders (key, order), ray indices, and the packet's best
+    hit so far (instance, primitive code as in bvh_packet's _PRIM row, u, v)."""
+    return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(stack_size, np.int32),
+            np.empty(stack_size), np.empty(4), np.empty((_NROW, PACKET)), np.empty((_NROW, PACKET)),
+            np.empty(4), np.empty(4, np.int64), np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64),
+            np.empty(PACKET, np.int64), np.empty(PACKET), np.empty(PACKET), np.empty(PACKET))
+
+
+@nb.njit(**JIT, inline="always")
+def _object_packet(rr, ro, w2o):
+    """The packet rr moved into object space (rows of ro, t range and best so far copied): returns (coherent,
+    nrx, nry, nrz, kx, ky, kz), coherent when the moved rays share direction signs and shear axes; only then
+    are their per-ray constants computed."""
+    for k in range(PACKET):
+        (ro[_OX, k], ro[_OY, k], ro[_OZ, k], ro[_DX, k], ro[_DY, k],
+         ro[_DZ, k]) = to_object(w2o, rr[_OX, k], rr[_OY, k], rr[_OZ, k], rr[_DX, k], rr[_DY, k], rr[_DZ, k])
+        ro[_TMIN, k], ro[_BEST, k] = rr[_TMIN, k], rr[_BEST, k]
+    dx0, dy0, dz0 = ro[_DX, 0], ro[_DY, 0], ro[_DZ, 0]
+    kx0, ky0, kz0 = shear_axes(dx0, dy0, dz0)
+    s0 = (dx0 < 0.0) + 2 * (dy0 < 0.0) + 4 * (dz0 < 0.0)
+    for k in range(1, PACKET):
+        dx, dy, dz = ro[_DX, k], ro[_DY, k], ro[_DZ, k]
+        kx, ky, kz = shear_axes(dx, dy, dz)
+        if (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0) != s0 or kx != kx0 or ky != ky0 or kz != kz0:
+            return False, 0, 4, 8, kx0, ky0, kz0
+    nrx, nry, nrz = packet_constants(ro, kx0, ky0, kz0)
+    return True, nrx, nry, nrz, kx0, ky0, kz0
+
+
+@nb.njit(**JIT, inline="always")
+def _trace_instance(k, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                    rr, ro, stack_node, stack_t, dist, key, order, res_inst, res_prim, res_u, res_v, any_mode):
+    """The packet rr against instance k: its closer hits recorded (rr's best, res_*), or (any_mode) the rays
+    that hit something retired (best -inf)."""
+    root = inst_root[k]
+    coherent, nrx, nry, nrz, kx, ky, kz = _object_packet(rr, ro, inst_w2o[k])
+    if coherent:
+        packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                        nrx, nry, nrz, kx, ky, kz, ro, stack_node, stack_t, key, order, any_mode)
+        for r in range(PACKET):
+            if any_mode:
+                rr[_BEST, r] = ro[_BEST, r]
+            elif ro[_PRIM, r] > -np.inf:
+                rr[_BEST, r] = ro[_BEST, r]
+                res_inst[r], res_prim[r] = k, ro[_PRIM, r]
+                res_u[r], res_v[r] = ro[_E1, r] / ro[_DET, r], ro[_E2, r] / ro[_DET, r]
+        return
+    for r in range(PACKET):
+        best = rr[_BEST, r]
+        if best == -np.inf:
+            continue  # retired (any-hit)
+        px, py, pz, qx, qy, qz = ro[_OX, r], ro[_OY, r], ro[_OZ, r], ro[_DX, r], ro[_DY, r], ro[_DZ, r]
+        if any_mode:
+            if blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                        px, py, pz, qx, qy, qz, ro[_TMIN, r], best, stack_node, dist):
+                rr[_BEST, r] = -np.inf
+            continue
+        t, kind, prim, u, w = blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius,
+                                           sph_w2o, px, py, pz, qx, qy, qz, ro[_TMIN, r], best, stack_node,
+                                           stack_t, dist)
+        if kind != 0:
+            rr[_BEST, r] = t
+            res_inst[r], res_prim[r] = k, (prim if kind == TRIANGLE else -(prim + 1.0))
+            res_u[r], res_v[r] = u, w
+
+
+@nb.njit(**JIT)
+def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
+                     sph_center, sph_radius, sph_w2o, nrx, nry, nrz, rr, ro, top_node, top_t, stack_node,
+                     stack_t, dist, top_key, top_order, key, order, res_inst, res_prim, res_u, res_v, any_mode):
+    """Walk the top-level tree with the coherent packet rr (set up by packet_setup), nearest instance boxes
+    first, skipping boxes beyond every ray's best hit so far; each instance met is traced by _trace_instance.
+    res_inst must start at -1: it ends as the instance of each ray's closest hit (closest mode)."""
+    ext = packet_extremes(rr, nrx, nry, nrz)
+    top_node[0] = 0  # the top-level tree's root
+    top_t[0] = -np.inf
+    sp = 1
+    far = packet_far(rr)
+    while sp > 0:
+        sp -= 1
+        if far == -np.inf:
+            break  # every ray has retired (any-hit)
+        if top_t[sp] > far + abs(far) * FAR_WIDEN:
+            continue
+        node = top_node[sp]
+        n_in = packet_children(top_bounds, top_child, node, nrx, nry, nrz, ext, far, top_key, top_order)
+        for q in range(n_in):
+            c = top_child[node, top_order[q]]
+            if c < 0:
+                first, end = leaf_range(c)
+                for j in range(first, end):
+                    _trace_instance(top_leaf[j], inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
+                                    sph_center, sph_radius, sph_w2o, rr, ro, stack_node, stack_t, dist, key, order,
+                                    res_inst, res_prim, res_u, res_v, any_mode)
+                far = packet_far(rr)
+        sp = push_inner(top_child, node, n_in, top_key, top_order, top_node, top_t, sp)
+
+
+@nb.njit(**JIT)
+def closest_hit_instances(origins, directions, t_min, t_max,
+                          top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                          bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width,
+                          t_out, inst_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
+    """Closest hit of each ray (in blocks blk0..blk1 of BLOCK chunks, see threads.run_blocks) over all
+    instances: t (inf on a miss), instance (-1), kind, prim, u, v. width as in bvh_trace.closest_hit_bvh."""
+    n = origins.shape[0]
+    n_chunks = (n + PACKET - 1) // PACKET
+    (top_node, top_t, stack_node, stack_t, dist, rr, ro, top_key, top_order, key, order, idx,
+     res_inst, res_prim, res_u, res_v) = _scratch(stack_size)
+    spread = packet_spread_limit(top_bounds, top_child)
+    for blk in range(blk0, blk1):
+        for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
+            m = chunk_rays(c, n, width, idx)
+            coherent, nrx, nry, nrz, _, _, _ = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
+            if coherent and m == PACKET:
+                res_inst[:] = -1
+                packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim,
+                                 leaf_tri, sph_center, sph_radius, sph_w2o, nrx, nry, nrz, rr, ro, top_node, top_t,
+                                 stack_node, stack_t, dist, top_key, top_order, key, order, res_inst, res_prim,
+                                 res_u, res_v, False)
+                for r in range(PACKET):
+                    i = idx[r]
+                    if res_inst[r] >= 0:
+                        pr = res_prim[r]
+                        t_out[i], inst_out[i] = rr[_BEST, r], res_inst[r]
+                        kind_out[i] = TRIANGLE if pr >= 0.0 else SPHERE
+                        prim_out[i] = np.int32(pr) if pr >= 0.0 else np.int32(-pr - 1.0)
+                        u_out[i], v_out[i] = res_u[r], res_v[r]
+                    else:
+                        t_out[i], inst_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = \
+                            np.inf, -1, 0, -1, 0.0, 0.0
+                continue
+            for q in range(m):
+                i = idx[q]
+                ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
+                t_out[i], inst_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = closest_instance_ray(
+                    ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], top_bounds, top_child, top_leaf, inst_root,
+                    inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                    top_node, top_t, stack_node, stack_t, dist)
+
+
+@nb.njit(**JIT)
+def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width, out,
+                      blk0, blk1):
+    """out[i] = whether ray i (in blocks blk0..blk1) hits any instance with t_min < t < t_max; the first hit
+    ends a ray's search (a packet's, once all its rays have hit)."""
+    n = origins.shape[0]
+    n_chunks = (n + PACKET - 1) // PACKET
+    (top_node, top_t, stack_node, stack_t, dist, rr, ro, top_key, top_order, key, order, idx,
+     res_inst, res_prim, res_u, res_v) = _scratch(stack_size)
+    spread = packet_spread_limit(top_bounds, top_child)
+    for blk in range(blk0, blk1):
+        for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
+            m = chunk_rays(c, n, width, idx)
+            coherent, nrx, nry, nrz, _, _, _ = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
+            if coherent and m == PACKET:
+                packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim,
+                                 leaf_tri, sph_center, sph_radius, sph_w2o, nrx, nry, nrz, rr, ro, top_node, top_t,
+                                 stack_node, stack_t, dist, top_key, top_order, key, order, res_inst, res_prim,
+                                 res_u, res_v, True)
+                for r in range(PACKET):
+                    out[idx[r]] = rr[_BEST, r] == -np.inf
+                continue
+            for q in range(m):
+                i = idx[q]
+                ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
+                out[i] = any_instance_ray(ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], top_bounds, top_child,
+                                          top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
+                                          sph_center, sph_radius, sph_w2o, top_node, stack_node, dist)
