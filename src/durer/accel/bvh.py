@@ -195,7 +195,9 @@ class TwoLevelBVH:
         for i, (s, m) in enumerate(instances):
             pts = np.where(corners, shapes[s].hi, shapes[s].lo) @ m[:3, :3].T + m[:3, 3]
             self._inst_lo[i], self._inst_hi[i] = pts.min(axis=0), pts.max(axis=0)
-        top_bounds, top_child, top_leaf, top_depth = build_wide_bvh(self._inst_lo, self._inst_hi)
+        # one instance a leaf: each gets its own box in its parent node, so a packet (or ray) skips the instances
+        # it misses instead of moving into every one of a shared leaf (bunny x4, 1M camera rays: 0.28 -> 0.16 CPU s)
+        top_bounds, top_child, top_leaf, top_depth = build_wide_bvh(self._inst_lo, self._inst_hi, 1)
         depth = max([top_depth] + [s.tree.depth for s in shapes])
         self._sph_off = np.array(sph_off, np.int64)
         return TwoLevelArrays(
