@@ -1,13 +1,13 @@
 """The two-level entry kernels (Numba): rays through meshes placed more than once, in packets where coherent.
 
 Rays go in chunks of PACKET (consecutive rays, or 4 x 4 tiles of an image `width` wide, as bvh_trace's one-level
-kernels take them). A coherent chunk walks the top-level tree over instances as a packet (bvh_packet's node
-step); at an instance leaf its rays are moved into the instance's object space with instances.to_object's
-arithmetic, so t stays what the one-ray two-level path computes, and the bottom-level tree is traversed with
-bvh_packet.packet_traverse when the moved rays still share direction signs and shear axes (a rotation can
-change the largest component), else one ray at a time through that instance. Incoherent chunks take the one-ray
-walk of instances.py. Every ray does the one-ray path's arithmetic, so t, u, v agree to the bit; only the visit
-order differs, which can change the primitive or instance named on an exact tie in t.
+kernels take them). A coherent chunk walks the top-level tree over instances as a packet (bvh_packet's node step);
+at an instance leaf its rays are moved into the instance's object space with instances.to_object's arithmetic, so t
+stays what the one-ray two-level path computes, and the bottom-level tree is traversed with
+bvh_packet.packet_traverse when the moved rays still share direction signs and shear axes (a rotation can change the
+largest component), else one ray at a time through that instance. Incoherent chunks take the one-ray two-level walk
+(nearest instance box first). Every ray does the one-ray path's arithmetic, so t, u, v agree to the bit; only the
+visit order differs, which can change the primitive or instance named on an exact tie in t.
 """
 
 from __future__ import annotations
@@ -38,8 +38,8 @@ from .bvh_packet import (
     packet_traverse,
     push_inner,
 )
-from .bvh_single import blas_any, blas_closest, load_ray
-from .instances import any_instance_ray, closest_instance_ray, to_object
+from .bvh_single import blas_any, blas_closest, descend, load_ray, next_leaf, pop_closer, ray_setup
+from .instances import to_object
 from .intersect import shear_axes
 from .layout import BLOCK, FAR_WIDEN, JIT, PACKET, SPHERE, TRIANGLE, leaf_range, packet_spread_limit
 
@@ -146,6 +146,69 @@ def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bound
 
 
 @nb.njit(**JIT)
+def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+                  bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node, top_t, stack_node,
+                  stack_t, dist, t_out, inst_out, kind_out, prim_out, u_out, v_out):
+    """Rays idx[:m] one at a time, the one-ray two-level walk (nearest instance box first), written out here: as
+    an inline="always" helper called from the kernel, the same walk measured 5-15% slower on incoherent rays."""
+    for q in range(m):
+        i = idx[q]
+        ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
+        lo = t_min[i]
+        best = t_max[i]
+        b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
+        idx_, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+        node, sp = 0, 0  # the top-level tree's root
+        while True:
+            leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx_,
+                               idy, idz, lo, best, dist)
+            if leaf != 0:
+                first, end = leaf_range(leaf)
+                for j in range(first, end):
+                    k = top_leaf[j]
+                    px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                    t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
+                                                       sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
+                                                       lo, best, stack_node, stack_t, dist)
+                    if kind != 0:
+                        best = t
+                        b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
+            node, sp = pop_closer(top_node, top_t, sp, best)
+            if node == 0:
+                break
+        t_out[i], inst_out[i], kind_out[i] = (best if b_kind != 0 else np.inf), b_inst, b_kind
+        prim_out[i], u_out[i], v_out[i] = b_prim, b_u, b_v
+
+
+@nb.njit(**JIT)
+def _any_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
+              bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node, stack_node, dist, out):
+    """Rays idx[:m] one at a time, the first hit ending a ray's search (written out, as in _closest_rays)."""
+    for q in range(m):
+        i = idx[q]
+        ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
+        lo, hi = t_min[i], t_max[i]
+        idx_, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+        hit = False
+        top_node[0] = 0
+        sp = 1
+        while not hit:
+            leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx_, idy, idz,
+                                 lo, hi, dist)
+            if leaf == 0:
+                break
+            first, end = leaf_range(leaf)
+            for j in range(first, end):
+                k = top_leaf[j]
+                px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+                if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                            px, py, pz, qx, qy, qz, lo, hi, stack_node, dist):
+                    hit = True
+                    break
+        out[i] = hit
+
+
+@nb.njit(**JIT)
 def closest_hit_instances(origins, directions, t_min, t_max,
                           top_bounds, top_child, top_leaf, inst_root, inst_w2o,
                           bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width,
@@ -179,13 +242,10 @@ def closest_hit_instances(origins, directions, t_min, t_max,
                         t_out[i], inst_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = \
                             np.inf, -1, 0, -1, 0.0, 0.0
                 continue
-            for q in range(m):
-                i = idx[q]
-                ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
-                t_out[i], inst_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = closest_instance_ray(
-                    ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], top_bounds, top_child, top_leaf, inst_root,
-                    inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                    top_node, top_t, stack_node, stack_t, dist)
+            _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root,
+                          inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                          top_node, top_t, stack_node, stack_t, dist, t_out, inst_out, kind_out, prim_out, u_out,
+                          v_out)
 
 
 @nb.njit(**JIT)
@@ -211,9 +271,6 @@ def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, 
                 for r in range(PACKET):
                     out[idx[r]] = rr[_BEST, r] == -np.inf
                 continue
-            for q in range(m):
-                i = idx[q]
-                ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
-                out[i] = any_instance_ray(ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], top_bounds, top_child,
-                                          top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
-                                          sph_center, sph_radius, sph_w2o, top_node, stack_node, dist)
+            _any_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root,
+                      inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node,
+                      stack_node, dist, out)
