@@ -10,8 +10,11 @@ sort (two O(N) passes), the rays gathered in that order, traced, and the answers
 
     NUMBA_NUM_THREADS=1 python benchmarks/reorder.py [--rays 1048576] [--res 128] [--spp 4] [--repeat 7]
 
-Figures: CPU seconds (time.process_time) of one thread, median over --repeat rounds, unsorted and sorted runs
-alternating; "sorted total" includes the key, the sort, the gather and the scatter.
+Each batch is traced four ways: through the accelerator (BVHAccelerator.closest_hit / any_hit, which takes any
+16 consecutive rays that look coherent as a packet) as given and sorted, and one ray at a time (the one-ray path of
+those kernels, bvh_single.blas_closest / blas_any, in a loop) as given and sorted (with and without the sort's
+cost). Figures: CPU seconds (time.process_time) of one thread, median over --repeat rounds, the runs alternating;
+a sorted figure includes the key, the sort, the gather and the scatter unless it says "trace only".
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from raycases import SHARED, load_mesh, random_rays
 import durer
 from durer.accel.bvh import BVHAccelerator
 from durer.accel.compile import compile_scene
+from durer.kernels.bvh_single import blas_any, blas_closest, planes_closest
 from durer.kernels.point_order import _spread_bits, grid_bits
 from durer.scene.graph import Group, Scene
 from durer.scene.shapes import TriangleMesh
@@ -62,14 +66,58 @@ def ray_order(o, d, bits, lo, scale, order):
         order[j] = i
 
 
-def sorted_trace(acc, o, d, lo, hi, closest: bool):
-    """Sort, gather, trace, scatter back: the answers in the rays' own order."""
+@nb.njit(cache=True)
+def one_by_one(o, d, lo, hi, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, pl_normal,
+               pl_offset, stack_size, closest, out):
+    """Every ray alone, as closest_hit_bvh / any_hit_bvh trace a chunk that is not coherent (planes, then the
+    tree): the one-ray path whatever the order, so sorting shows what it does to that path's cache use.
+    out = t (closest) or 1.0 / 0.0 (any)."""
+    stack_node, stack_t, dist = np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(4)
+    for i in range(o.shape[0]):
+        ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
+        best, pprim = planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo[i], hi[i])
+        if closest:
+            t = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, ox, oy, oz,
+                             dx, dy, dz, lo[i], best, stack_node, stack_t, dist)[0]
+            out[i] = min(t, best)
+        elif pprim >= 0 or blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                    ox, oy, oz, dx, dy, dz, lo[i], hi[i], stack_node, dist):
+            out[i] = 1.0
+        else:
+            out[i] = 0.0
+
+
+def ray_permutation(o, d) -> np.ndarray:
+    """The sort's permutation: sorted[j] = rays[order[j]]."""
     n = len(o)
     bits = grid_bits(n)
     blo, bhi = o.min(axis=0), o.max(axis=0)
     scale = np.divide(1 << bits, bhi - blo, out=np.zeros(3), where=bhi > blo)
     order = np.empty(n, np.int64)
     ray_order(o, d, bits, blo, scale, order)
+    return order
+
+
+def single_plain(acc, o, d, lo, hi, closest: bool) -> np.ndarray:
+    out = np.empty(len(o))
+    one_by_one(o, d, lo, hi, *acc._args(), closest, out)
+    return out
+
+
+def single_sorted(acc, o, d, lo, hi, closest: bool) -> np.ndarray:
+    """Sort, gather, one ray at a time, scatter back."""
+    order = ray_permutation(o, d)
+    got = single_plain(acc, np.take(o, order, axis=0), np.take(d, order, axis=0), np.take(lo, order),
+                       np.take(hi, order), closest)
+    out = np.empty(len(o))
+    out[order] = got
+    return out
+
+
+def sorted_trace(acc, o, d, lo, hi, closest: bool):
+    """Sort, gather, trace, scatter back: the answers in the rays' own order."""
+    n = len(o)
+    order = ray_permutation(o, d)
     os_, ds = np.take(o, order, axis=0), np.take(d, order, axis=0)
     los, his = np.take(lo, order), np.take(hi, order)
     if closest:
@@ -89,37 +137,39 @@ def sorted_trace(acc, o, d, lo, hi, closest: bool):
 
 
 def compare(label: str, acc, batches: list, closest: bool, repeat: int) -> None:
-    """Time the batches traced as given and sorted (alternating), check the answers agree, print the line."""
-    plain = lambda: [acc.closest_hit(o, d, lo, hi).t if closest else acc.any_hit(o, d, lo, hi)  # noqa: E731
-                     for o, d, lo, hi in batches]
-    sort = lambda: [sorted_trace(acc, o, d, lo, hi, closest) for o, d, lo, hi in batches]  # noqa: E731
-    a, b = plain(), sort()
-    for x, y in zip(a, b, strict=True):
-        assert np.array_equal(x, y), "sorted rays must give the same answers"
-    pre = []  # the sorted batches alone: what the traversal gains, without the sort's cost
+    """Time the batches as given and sorted, through the accelerator (packets where a chunk looks coherent) and one
+    ray at a time; check the answers agree; print a table row. Runs alternate, figures are medians."""
+    def api(o, d, lo, hi):
+        return acc.closest_hit(o, d, lo, hi).t if closest else acc.any_hit(o, d, lo, hi)
+
+    pre = []  # the batches sorted beforehand: what the one-ray walk gains, without the sort's cost
     for o, d, lo, hi in batches:
-        n = len(o)
-        bits = grid_bits(n)
-        blo, bhi = o.min(axis=0), o.max(axis=0)
-        scale = np.divide(1 << bits, bhi - blo, out=np.zeros(3), where=bhi > blo)
-        order = np.empty(n, np.int64)
-        ray_order(o, d, bits, blo, scale, order)
+        order = ray_permutation(o, d)
         pre.append((o[order], d[order], lo[order], hi[order]))
-    traced = lambda: [acc.closest_hit(o, d, lo, hi).t if closest else acc.any_hit(o, d, lo, hi)  # noqa: E731
-                      for o, d, lo, hi in pre]
-    times = {"as given": [], "sorted total": [], "sorted, trace only": []}
-    fns = dict(zip(times, (plain, sort, traced), strict=True))
-    names = list(times)
+    fns = {
+        "api": lambda: [api(*b) for b in batches],
+        "api sorted": lambda: [sorted_trace(acc, *b, closest) for b in batches],
+        "one": lambda: [single_plain(acc, *b, closest) for b in batches],
+        "one sorted": lambda: [single_sorted(acc, *b, closest) for b in batches],
+        "one presorted": lambda: [single_plain(acc, *b, closest) for b in pre],
+    }
+    ref = fns["api"]()
+    for name in ("api sorted", "one", "one sorted"):
+        for x, y in zip(ref, fns[name](), strict=True):
+            y = y if closest or name == "api sorted" else y > 0.0
+            assert np.array_equal(x, y), f"{name}: the answers must not change"
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    names = list(fns)
     for r in range(repeat):
-        for name in names[r % 3:] + names[:r % 3]:
+        for name in names[r % len(names):] + names[:r % len(names)]:
             start = time.process_time()
             fns[name]()
             times[name].append(time.process_time() - start)
-    med = {k: float(np.median(v)) for k, v in times.items()}
+    m = {k: float(np.median(v)) for k, v in times.items()}
     n = sum(len(b[0]) for b in batches)
-    print(f"| {label} | {'closest' if closest else 'any'} | {len(batches)} | {n:,} | {med['as given']:.3f} | "
-          f"{med['sorted, trace only']:.3f} | {med['sorted total']:.3f} | "
-          f"{med['as given'] / med['sorted total']:.2f}x |")
+    print(f"| {label} | {'closest' if closest else 'any'} | {len(batches)} | {n:,} | {m['api']:.3f} | "
+          f"{m['api sorted']:.3f} | {m['one']:.3f} | {m['one presorted']:.3f} | {m['one sorted']:.3f} | "
+          f"{m['one'] / m['one sorted']:.2f}x |")
 
 
 def capture(xml: Path, res: int, spp: int) -> tuple[BVHAccelerator | None, list, list]:
@@ -173,8 +223,9 @@ def main() -> None:
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--repeat", type=int, default=7)
     a = ap.parse_args()
-    print("| batch | query | batches | rays | as given (CPU s) | sorted, trace only | sorted total | gain |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| batch | query | wavefronts | rays | accelerator (CPU s) | accelerator, sorted | one ray at a time | "
+          "one ray at a time, sorted (trace only) | (with the sort) | net gain of sorting, one ray at a time |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     bunny = load_mesh(SHARED / "meshes", "bun_zipper.ply")
     acc = BVHAccelerator(compile_scene(Scene(camera=None, group=Group([TriangleMesh(bunny.vertices, bunny.faces)]))))
     o, d = random_rays(bunny, a.rays)

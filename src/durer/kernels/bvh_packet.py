@@ -100,15 +100,6 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
                 coherent = False
     if not coherent:
         return False, 0, 4, 8, kx0, ky0, kz0
-    nrx, nry, nrz = packet_constants(rr, kx0, ky0, kz0)
-    return True, nrx, nry, nrz, kx0, ky0, kz0
-
-
-@nb.njit(**JIT, inline="always")
-def packet_constants(rr, kx0, ky0, kz0):
-    """The per-ray constants of a packet whose origins, directions and t range are in rr (reciprocal
-    directions, the shear for axes kx0, ky0, kz0, no hit yet), in a loop over rays that vectorises, with
-    ray_setup's exact operations; returns the near-plane row offsets (nrx, nry, nrz) the rays share."""
     for k in range(PACKET):
         dx, dy, dz = rr[_DX, k], rr[_DY, k], rr[_DZ, k]
         rr[_IX, k] = 1.0 / (dx if dx != 0.0 else 1e-300)
@@ -129,7 +120,7 @@ def packet_constants(rr, kx0, ky0, kz0):
     nrx = 12 if rr[_IX, 0] < 0.0 else 0
     nry = 16 if rr[_IY, 0] < 0.0 else 4
     nrz = 20 if rr[_IZ, 0] < 0.0 else 8
-    return nrx, nry, nrz
+    return True, nrx, nry, nrz, kx0, ky0, kz0
 
 
 @nb.njit(**JIT, inline="always")
@@ -198,34 +189,7 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
     conservative to the bit), children are ordered by the packet's entry distance, which the stack keeps: a
     node is skipped when it lies beyond every ray's closest hit so far. Leaves met in a node are tested at once,
     against all the packet's rays (the triangle test is exact, so a ray outside the leaf's box just misses)."""
-    ext = packet_extremes(rr, nrx, nry, nrz)
-    stack_node[0] = root
-    stack_t[0] = -np.inf
-    sp = 1
-    far = packet_far(rr)
-    while sp > 0:
-        sp -= 1
-        if far == -np.inf:
-            break  # every ray has retired (any-hit)
-        if stack_t[sp] > far + abs(far) * FAR_WIDEN:
-            continue  # no ray's box test could pass below this node (children lie inside its box)
-        node = stack_node[sp]
-        n_in = packet_children(bounds, child, node, nrx, nry, nrz, ext, far, key, order)
-        # leaves now (nearest first), inner children onto the stack farthest first
-        for q in range(n_in):
-            lane = order[q]
-            c = child[node, lane]
-            if c < 0:
-                _packet_leaf(c, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, any_mode)
-                far = packet_far(rr)
-        sp = push_inner(child, node, n_in, key, order, stack_node, stack_t, sp)
-
-
-@nb.njit(**JIT, inline="always")
-def packet_extremes(rr, nrx, nry, nrz):
-    """The packet's extremes that bound its slab tests: per axis the origin that minimises the near plane's
-    distance and the one that maximises the far one's, the reciprocal directions' range, and the lowest t_min:
-    (onx, ofx, ony, ofy, onz, ofz, ixl, ixh, iyl, iyh, izl, izh, tlo)."""
+    # the packet's extremes: origins, reciprocal directions (one sign per axis), t_min
     oxl = oxh = rr[_OX, 0]
     oyl = oyh = rr[_OY, 0]
     ozl = ozh = rr[_OZ, 0]
@@ -241,48 +205,51 @@ def packet_extremes(rr, nrx, nry, nrz):
         iyl, iyh = min(iyl, rr[_IY, k]), max(iyh, rr[_IY, k])
         izl, izh = min(izl, rr[_IZ, k]), max(izh, rr[_IZ, k])
         tlo = min(tlo, rr[_TMIN, k])
+    # the origin extreme that minimises the near plane's distance and the one that maximises the far one's
     onx, ofx = (oxh, oxl) if nrx == 0 else (oxl, oxh)
     ony, ofy = (oyh, oyl) if nry == 4 else (oyl, oyh)
     onz, ofz = (ozh, ozl) if nrz == 8 else (ozl, ozh)
-    return onx, ofx, ony, ofy, onz, ofz, ixl, ixh, iyl, iyh, izl, izh, tlo
-
-
-@nb.njit(**JIT, inline="always")
-def packet_children(bounds, child, node, nrx, nry, nrz, ext, far, key, order):
-    """Test the child boxes of `node` against the packet as a whole (extremes ext of packet_extremes, no
-    farther than `far`): the lanes entered go into order[:n], nearest entry (key) first; returns n."""
-    onx, ofx, ony, ofy, onz, ofz, ixl, ixh, iyl, iyh, izl, izh, tlo = ext
-    base = node * NODE_FLOATS
-    n_in = 0
-    for lane in range(WIDTH):
-        c = child[node, lane]
-        if c == 0:
-            continue
-        b = base + lane
-        tn, tf = tlo, far
-        a, e = _packet_slab(bounds[b + nrx], bounds[b + (LO_X + HI_X) - nrx], onx, ofx, ixl, ixh)
-        tn, tf = max(tn, a), min(tf, e)
-        a, e = _packet_slab(bounds[b + nry], bounds[b + (LO_Y + HI_Y) - nry], ony, ofy, iyl, iyh)
-        tn, tf = max(tn, a), min(tf, e)
-        a, e = _packet_slab(bounds[b + nrz], bounds[b + (LO_Z + HI_Z) - nrz], onz, ofz, izl, izh)
-        tn, tf = max(tn, a), min(tf, e)
-        if not tn <= tf + abs(tf) * FAR_WIDEN:
-            continue
-        n_in = insert_ascending(key, order, n_in, tn, lane)  # nearest first
-    return n_in
-
-
-@nb.njit(**JIT, inline="always")
-def push_inner(child, node, n_in, key, order, stack_node, stack_t, sp):
-    """Push the inner children among the n_in entered lanes (order, key) of `node`, farthest first, so the
-    nearest is popped first; returns the new stack pointer."""
-    for q in range(n_in - 1, -1, -1):
-        c = child[node, order[q]]
-        if c > 0:
-            stack_node[sp] = c
-            stack_t[sp] = key[q]
-            sp += 1
-    return sp
+    stack_node[0] = root
+    stack_t[0] = -np.inf
+    sp = 1
+    far = _packet_far(rr)
+    while sp > 0:
+        sp -= 1
+        if far == -np.inf:
+            break  # every ray has retired (any-hit)
+        if stack_t[sp] > far + abs(far) * FAR_WIDEN:
+            continue  # no ray's box test could pass below this node (children lie inside its box)
+        node = stack_node[sp]
+        base = node * NODE_FLOATS
+        n_in = 0
+        for lane in range(WIDTH):
+            c = child[node, lane]
+            if c == 0:
+                continue
+            b = base + lane
+            tn, tf = tlo, far
+            a, e = _packet_slab(bounds[b + nrx], bounds[b + (LO_X + HI_X) - nrx], onx, ofx, ixl, ixh)
+            tn, tf = max(tn, a), min(tf, e)
+            a, e = _packet_slab(bounds[b + nry], bounds[b + (LO_Y + HI_Y) - nry], ony, ofy, iyl, iyh)
+            tn, tf = max(tn, a), min(tf, e)
+            a, e = _packet_slab(bounds[b + nrz], bounds[b + (LO_Z + HI_Z) - nrz], onz, ofz, izl, izh)
+            tn, tf = max(tn, a), min(tf, e)
+            if not tn <= tf + abs(tf) * FAR_WIDEN:
+                continue
+            n_in = insert_ascending(key, order, n_in, tn, lane)  # nearest first
+        # leaves now (nearest first), inner children onto the stack farthest first
+        for q in range(n_in):
+            lane = order[q]
+            c = child[node, lane]
+            if c < 0:
+                _packet_leaf(c, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx, ky, kz, rr, any_mode)
+                far = _packet_far(rr)
+        for q in range(n_in - 1, -1, -1):
+            c = child[node, order[q]]
+            if c > 0:
+                stack_node[sp] = c
+                stack_t[sp] = key[q]
+                sp += 1
 
 
 @nb.njit(**JIT, inline="always")
@@ -298,7 +265,7 @@ def _packet_slab(near_plane, far_plane, o_near, o_far, i_lo, i_hi):
 
 
 @nb.njit(**JIT, inline="always")
-def packet_far(rr):
+def _packet_far(rr):
     """The farthest closest-hit-so-far among the packet's rays (-inf once all have retired)."""
     far = -np.inf
     for k in range(PACKET):

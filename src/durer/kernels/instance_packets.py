@@ -1,7 +1,7 @@
 """The two-level entry kernels (Numba): rays through meshes placed more than once, in packets where coherent.
 
 Rays go in chunks of PACKET (consecutive rays, or 4 x 4 tiles of an image `width` wide, as bvh_trace's one-level
-kernels take them). A coherent chunk walks the top-level tree over instances as a packet (bvh_packet's node step);
+kernels take them). A coherent chunk walks the top-level tree over instances as a packet (packet_traverse's node test);
 at an instance leaf its rays are moved into the instance's object space with instances.to_object's arithmetic, so t
 stays what the one-ray two-level path computes, and the bottom-level tree is traversed with
 bvh_packet.packet_traverse when the moved rays still share direction signs and shear axes (a rotation can change the
@@ -23,25 +23,49 @@ from .bvh_packet import (
     _DZ,
     _E1,
     _E2,
+    _IX,
+    _IY,
+    _IZ,
     _NROW,
+    _OKX,
+    _OKY,
+    _OKZ,
     _OX,
     _OY,
     _OZ,
     _PRIM,
+    _SX,
+    _SY,
+    _SZ,
     _TMIN,
+    _packet_far,
+    _packet_slab,
     chunk_rays,
-    packet_children,
-    packet_constants,
-    packet_extremes,
-    packet_far,
     packet_setup,
     packet_traverse,
-    push_inner,
 )
 from .bvh_single import blas_any, blas_closest, descend, load_ray, next_leaf, pop_closer, ray_setup
 from .instances import to_object
 from .intersect import shear_axes
-from .layout import BLOCK, FAR_WIDEN, JIT, PACKET, SPHERE, TRIANGLE, leaf_range, packet_spread_limit
+from .layout import (
+    BLOCK,
+    FAR_WIDEN,
+    HI_X,
+    HI_Y,
+    HI_Z,
+    JIT,
+    LO_X,
+    LO_Y,
+    LO_Z,
+    NODE_FLOATS,
+    PACKET,
+    SPHERE,
+    TRIANGLE,
+    WIDTH,
+    leaf_range,
+    packet_spread_limit,
+)
+from .small_sort import insert_ascending
 
 
 @nb.njit(**JIT, inline="always")
@@ -72,7 +96,25 @@ def _object_packet(rr, ro, w2o):
         kx, ky, kz = shear_axes(dx, dy, dz)
         if (dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0) != s0 or kx != kx0 or ky != ky0 or kz != kz0:
             return False, 0, 4, 8, kx0, ky0, kz0
-    nrx, nry, nrz = packet_constants(ro, kx0, ky0, kz0)
+    for k in range(PACKET):  # bvh_packet.packet_setup's per-ray constants, the same operations
+        dx, dy, dz = ro[_DX, k], ro[_DY, k], ro[_DZ, k]
+        ro[_IX, k] = 1.0 / (dx if dx != 0.0 else 1e-300)
+        ro[_IY, k] = 1.0 / (dy if dy != 0.0 else 1e-300)
+        ro[_IZ, k] = 1.0 / (dz if dz != 0.0 else 1e-300)
+        dkz = ro[_DX + kz0, k]
+        ro[_SX, k] = ro[_DX + kx0, k] / dkz
+        ro[_SY, k] = ro[_DX + ky0, k] / dkz
+        ro[_SZ, k] = 1.0 / dkz
+        ro[_OKX, k] = ro[_OX + kx0, k]
+        ro[_OKY, k] = ro[_OX + ky0, k]
+        ro[_OKZ, k] = ro[_OX + kz0, k]
+        ro[_E1, k] = 0.0
+        ro[_E2, k] = 0.0
+        ro[_DET, k] = 1.0
+        ro[_PRIM, k] = -np.inf
+    nrx = HI_X if ro[_IX, 0] < 0.0 else LO_X
+    nry = HI_Y if ro[_IY, 0] < 0.0 else LO_Y
+    nrz = HI_Z if ro[_IZ, 0] < 0.0 else LO_Z
     return True, nrx, nry, nrz, kx0, ky0, kz0
 
 
@@ -120,11 +162,29 @@ def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bound
     """Walk the top-level tree with the coherent packet rr (set up by packet_setup), nearest instance boxes
     first, skipping boxes beyond every ray's best hit so far; each instance met is traced by _trace_instance.
     res_inst must start at -1: it ends as the instance of each ray's closest hit (closest mode)."""
-    ext = packet_extremes(rr, nrx, nry, nrz)
+    # the packet's extremes, as bvh_packet.packet_traverse takes them: origins, reciprocal directions, t_min
+    oxl = oxh = rr[_OX, 0]
+    oyl = oyh = rr[_OY, 0]
+    ozl = ozh = rr[_OZ, 0]
+    ixl = ixh = rr[_IX, 0]
+    iyl = iyh = rr[_IY, 0]
+    izl = izh = rr[_IZ, 0]
+    tlo = rr[_TMIN, 0]
+    for k in range(1, PACKET):
+        oxl, oxh = min(oxl, rr[_OX, k]), max(oxh, rr[_OX, k])
+        oyl, oyh = min(oyl, rr[_OY, k]), max(oyh, rr[_OY, k])
+        ozl, ozh = min(ozl, rr[_OZ, k]), max(ozh, rr[_OZ, k])
+        ixl, ixh = min(ixl, rr[_IX, k]), max(ixh, rr[_IX, k])
+        iyl, iyh = min(iyl, rr[_IY, k]), max(iyh, rr[_IY, k])
+        izl, izh = min(izl, rr[_IZ, k]), max(izh, rr[_IZ, k])
+        tlo = min(tlo, rr[_TMIN, k])
+    onx, ofx = (oxh, oxl) if nrx == LO_X else (oxl, oxh)
+    ony, ofy = (oyh, oyl) if nry == LO_Y else (oyl, oyh)
+    onz, ofz = (ozh, ozl) if nrz == LO_Z else (ozl, ozh)
     top_node[0] = 0  # the top-level tree's root
     top_t[0] = -np.inf
     sp = 1
-    far = packet_far(rr)
+    far = _packet_far(rr)
     while sp > 0:
         sp -= 1
         if far == -np.inf:
@@ -132,7 +192,21 @@ def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bound
         if top_t[sp] > far + abs(far) * FAR_WIDEN:
             continue
         node = top_node[sp]
-        n_in = packet_children(top_bounds, top_child, node, nrx, nry, nrz, ext, far, top_key, top_order)
+        base = node * NODE_FLOATS
+        n_in = 0
+        for lane in range(WIDTH):  # the child boxes against the packet as a whole, as packet_traverse tests them
+            if top_child[node, lane] == 0:
+                continue
+            b = base + lane
+            tn, tf = tlo, far
+            a, e = _packet_slab(top_bounds[b + nrx], top_bounds[b + (LO_X + HI_X) - nrx], onx, ofx, ixl, ixh)
+            tn, tf = max(tn, a), min(tf, e)
+            a, e = _packet_slab(top_bounds[b + nry], top_bounds[b + (LO_Y + HI_Y) - nry], ony, ofy, iyl, iyh)
+            tn, tf = max(tn, a), min(tf, e)
+            a, e = _packet_slab(top_bounds[b + nrz], top_bounds[b + (LO_Z + HI_Z) - nrz], onz, ofz, izl, izh)
+            tn, tf = max(tn, a), min(tf, e)
+            if tn <= tf + abs(tf) * FAR_WIDEN:
+                n_in = insert_ascending(top_key, top_order, n_in, tn, lane)  # nearest first
         for q in range(n_in):
             c = top_child[node, top_order[q]]
             if c < 0:
@@ -141,8 +215,13 @@ def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bound
                     _trace_instance(top_leaf[j], inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
                                     sph_center, sph_radius, sph_w2o, rr, ro, stack_node, stack_t, dist, key, order,
                                     res_inst, res_prim, res_u, res_v, any_mode)
-                far = packet_far(rr)
-        sp = push_inner(top_child, node, n_in, top_key, top_order, top_node, top_t, sp)
+                far = _packet_far(rr)
+        for q in range(n_in - 1, -1, -1):  # inner children onto the stack, farthest first
+            c = top_child[node, top_order[q]]
+            if c > 0:
+                top_node[sp] = c
+                top_t[sp] = top_key[q]
+                sp += 1
 
 
 @nb.njit(**JIT)
