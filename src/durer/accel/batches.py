@@ -99,7 +99,7 @@ def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
                  t, inst, prim, uv, normals)
     else:
         p = tree.packed
-        rays.run(closest_two_level, *p.args, rays.band(), p.inst_shape, p.tri_off, p.normals, p.inst_sign,
+        rays.run(closest_two_level, *p.args, rays.width, rays.band(), p.inst_shape, p.tri_off, p.normals, p.inst_sign,
                  t, inst, prim, uv, normals)
     return {"t_hit": t, "geometry_ids": inst, "primitive_ids": prim, "primitive_uvs": uv,
             "primitive_normals": normals}
@@ -114,7 +114,7 @@ def occluded(tree: TwoLevelBVH, rays: RayBatch) -> np.ndarray:
         w2o, moved, args, _ = one
         rays.run(occluded_one_level, w2o, moved, *args, rays.width, rays.band(), out)
     else:
-        rays.run(occluded_two_level, *tree.packed.args, rays.band(), out)
+        rays.run(occluded_two_level, *tree.packed.args, rays.width, rays.band(), out)
     return out
 
 

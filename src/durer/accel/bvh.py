@@ -22,7 +22,8 @@ import numpy as np
 
 from ..kernels.bvh_build import build_wide_bvh, item_boxes, leaf_items
 from ..kernels.bvh_trace import any_hit_bvh, closest_hit_bvh
-from ..kernels.instances import any_hit_instances, closest_hit_instances, rays_to_object
+from ..kernels.instance_packets import any_hit_instances, closest_hit_instances
+from ..kernels.instances import rays_to_object
 from ..kernels.layout import MAX_LEAF, MISS, SPHERE, TILE, TRIANGLE, leaf_codes, leaf_slots, stack_size_for
 from ..kernels.threads import run_blocks
 from .compile import CompiledScene, sphere_bounds
@@ -194,7 +195,9 @@ class TwoLevelBVH:
         for i, (s, m) in enumerate(instances):
             pts = np.where(corners, shapes[s].hi, shapes[s].lo) @ m[:3, :3].T + m[:3, 3]
             self._inst_lo[i], self._inst_hi[i] = pts.min(axis=0), pts.max(axis=0)
-        top_bounds, top_child, top_leaf, top_depth = build_wide_bvh(self._inst_lo, self._inst_hi)
+        # one instance a leaf: each gets its own box in its parent node, so a packet (or ray) skips the instances
+        # it misses instead of moving into every one of a shared leaf (bunny x4, 1M camera rays: 0.28 -> 0.16 CPU s)
+        top_bounds, top_child, top_leaf, top_depth = build_wide_bvh(self._inst_lo, self._inst_hi, 1)
         depth = max([top_depth] + [s.tree.depth for s in shapes])
         self._sph_off = np.array(sph_off, np.int64)
         return TwoLevelArrays(
@@ -290,7 +293,8 @@ class TwoLevelBVH:
             run_blocks(closest_hit_bvh, n, one[0], one[1], t_min, t_max, *one[2], width, t, kind, prim, u, v)
             self._instance_ids(kind, prim, inst)
         elif self.instances and n:
-            run_blocks(closest_hit_instances, n, o, d, t_min, t_max, *self.packed.args, t, inst, kind, prim, u, v)
+            run_blocks(closest_hit_instances, n, o, d, t_min, t_max, *self.packed.args, width, t, inst, kind,
+                       prim, u, v)
         else:
             t[:], inst[:], kind[:], prim[:], u[:], v[:] = np.inf, INVALID_ID, MISS, INVALID_ID, 0.0, 0.0
         return t, inst, kind, prim, u, v
@@ -302,7 +306,7 @@ class TwoLevelBVH:
         if one is not None:
             run_blocks(any_hit_bvh, len(o), one[0], one[1], t_min, t_max, *one[2], width, out)
         elif self.instances and len(o):
-            run_blocks(any_hit_instances, len(o), o, d, t_min, t_max, *self.packed.args, out)
+            run_blocks(any_hit_instances, len(o), o, d, t_min, t_max, *self.packed.args, width, out)
         return out
 
 
@@ -399,15 +403,16 @@ class BVHAccelerator:
         o = np.ascontiguousarray(origins, dtype=np.float64)
         d = np.ascontiguousarray(directions, dtype=np.float64)
         lo, hi = per_ray(t_min, n), per_ray(t_max, n)
-        run_blocks(closest_hit_bvh, n, o, d, lo, hi, *self._args(), _checked_width(width, o, d),
-                   h.t, h.kind, h.prim, h.u, h.v)
+        width = _checked_width(width, o, d)
+        run_blocks(closest_hit_bvh, n, o, d, lo, hi, *self._args(), width, h.t, h.kind, h.prim, h.u, h.v)
         if self.instances is not None and n:
-            self._closest_instances(o, d, lo, np.minimum(hi, h.t), h)
+            self._closest_instances(o, d, lo, np.minimum(hi, h.t), h, width)
         return h
 
-    def _closest_instances(self, o, d, lo, hi, h: Hits) -> None:
-        """Merge the instances' closest hits into h (a tie keeps the flat hit); prim becomes the virtual id."""
-        t, inst, kind, prim, u, v = self.instances.closest_hit(o, d, lo, hi)
+    def _closest_instances(self, o, d, lo, hi, h: Hits, width: int) -> None:
+        """Merge the instances' closest hits into h (a tie keeps the flat hit); prim becomes the virtual id.
+        width: the rays' image width (4 x 4 tile packets through the instances too), or 0."""
+        t, inst, kind, prim, u, v = self.instances.closest_hit(o, d, lo, hi, width)
         m = kind != MISS
         if m.any():
             k = inst[m]

@@ -1,11 +1,12 @@
 """Two-level traversal (Numba): a top-level 4-wide BVH over instances, each pointing at a bottom-level tree.
 
-An instance is (root node of a bottom-level tree in the shared arrays, 3x4 world-to-object matrix). At an
-instance leaf the ray is moved into object space with its direction left unnormalised, so the bottom-level
-tree's t is the world t and one mesh can appear many times while being stored once. The top-level tree uses
-the layout of kernels/layout.py; its leaf slots name instances. The kernels are serial and nogil, spread over
-threads by threads.run_blocks rather than parallel=True regions: a process forked after an OpenMP region has run
-cannot use one again, and RaycastingScene must work in forked workers.
+An instance is (root node of a bottom-level tree in the shared arrays, 3x4 world-to-object matrix). At an instance
+leaf the ray is moved into object space with its direction left unnormalised, so the bottom-level tree's t is the
+world t and one mesh can appear many times while being stored once. The top-level tree uses the layout of
+kernels/layout.py; its leaf slots name instances. Here: moving rays, normals, and every hit of a ray; the closest-
+hit and any-hit kernels, which also take packets, are in kernels/instance_packets.py. The kernels are serial and
+nogil, spread over threads by threads.run_blocks rather than parallel=True regions: a process forked after an OpenMP
+region has run cannot use one again, and RaycastingScene must work in forked workers.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_single import blas_all, blas_any, blas_closest, descend, load_ray, next_leaf, pop_closer, ray_setup
+from .bvh_single import blas_all, load_ray, next_leaf, ray_setup
 from .layout import BLOCK, JIT, PACKET, SPHERE, TRIANGLE, leaf_range
 
 RAYS_PER_BLOCK = PACKET * BLOCK  # rays per work item of threads.run_blocks (serial nogil kernels, fork-safe)
@@ -69,79 +70,6 @@ def hit_normal(ox, oy, oz, dx, dy, dz, t, k, kind, prim, inst_shape, tri_off, tr
     if length > 0.0:
         nx, ny, nz = nx / length, ny / length, nz / length
     return nx, ny, nz
-
-
-@nb.njit(**JIT)
-def closest_hit_instances(origins, directions, t_min, t_max,
-                          top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                          bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                          t_out, inst_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
-    """Closest hit of each ray (in blocks blk0..blk1, see threads.run_blocks) over all instances: t (inf on a
-    miss), instance (-1), kind, prim, u, v."""
-    n = origins.shape[0]
-    top_node = np.empty(stack_size, np.int32)
-    top_t = np.empty(stack_size)
-    stack_node = np.empty(stack_size, np.int32)
-    stack_t = np.empty(stack_size)
-    dist = np.empty(4)
-    for i in range(blk0 * RAYS_PER_BLOCK, min(n, blk1 * RAYS_PER_BLOCK)):
-        ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
-        lo = t_min[i]
-        best = t_max[i]
-        b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
-        idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
-        node, sp = 0, 0  # the top-level tree's root
-        while True:
-            leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx,
-                               idy, idz, lo, best, dist)
-            if leaf != 0:
-                first, end = leaf_range(leaf)
-                for j in range(first, end):
-                    k = top_leaf[j]
-                    px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
-                    t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
-                                                       sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
-                                                       lo, best, stack_node, stack_t, dist)
-                    if kind != 0:
-                        best = t
-                        b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
-            node, sp = pop_closer(top_node, top_t, sp, best)
-            if node == 0:
-                break
-        t_out[i], inst_out[i], kind_out[i] = (best if b_kind != 0 else np.inf), b_inst, b_kind
-        prim_out[i], u_out[i], v_out[i] = b_prim, b_u, b_v
-
-
-@nb.njit(**JIT)
-def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, out, blk0, blk1):
-    """out[i] = whether ray i (in blocks blk0..blk1) hits any instance with t_min < t < t_max; the first hit ends
-    the search."""
-    n = origins.shape[0]
-    top_node = np.empty(stack_size, np.int32)
-    stack_node = np.empty(stack_size, np.int32)
-    dist = np.empty(4)
-    for i in range(blk0 * RAYS_PER_BLOCK, min(n, blk1 * RAYS_PER_BLOCK)):
-        ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
-        lo, hi = t_min[i], t_max[i]
-        idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
-        hit = False
-        top_node[0] = 0
-        sp = 1
-        while not hit:
-            leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
-                                 lo, hi, dist)
-            if leaf == 0:
-                break
-            first, end = leaf_range(leaf)
-            for j in range(first, end):
-                k = top_leaf[j]
-                px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
-                if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                            px, py, pz, qx, qy, qz, lo, hi, stack_node, dist):
-                    hit = True
-                    break
-        out[i] = hit
 
 
 @nb.njit(**JIT)

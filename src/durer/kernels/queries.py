@@ -2,7 +2,7 @@
 
 Each work item (threads.run_pieces hands out bands k0..k1) copies a band of rays into float64 scratch while
 checking it (rays.load_band), traces the scratch with the ordinary kernels (bvh_trace's one-level packet kernels,
-or instances' two-level ones when a shape is placed twice) and writes every output the user gets straight from
+or instance_packets' two-level ones when a shape is placed twice) and writes every output the user gets straight from
 the scratch while it is in cache: t, instance and primitive ids, barycentrics and world-space normals. A band
 with a bad ray is not traced (the caller raises). The arithmetic is the kernels' own, so the answers are those of
 tracing the whole batch converted to float64 up front, to the bit.
@@ -14,7 +14,8 @@ import numba as nb
 import numpy as np
 
 from .bvh_trace import any_hit_bvh, closest_hit_bvh
-from .instances import all_hits_instances, any_hit_instances, closest_hit_instances, hit_normal
+from .instance_packets import any_hit_instances, closest_hit_instances
+from .instances import all_hits_instances, hit_normal
 from .layout import BLOCK, JIT, MISS, PACKET, SPHERE, TRIANGLE
 from .rays import band_scratch, load_band, ray_at
 
@@ -89,10 +90,11 @@ def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
 
 @nb.njit(**JIT)
 def closest_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, band,
+                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width, band,
                       inst_shape, tri_off, tri_normals, inst_sign,
                       t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
-    """cast_rays through the two-level tree (instances.closest_hit_instances), when a shape is placed twice."""
+    """cast_rays through the two-level tree (instance_packets.closest_hit_instances), when a shape is placed
+    twice; width as in closest_one_level."""
     o, d, lo, hi = band_scratch(band)
     t, kind, u, v = np.empty(band), np.empty(band, np.int8), np.empty(band), np.empty(band)
     for k in range(k0, k1):
@@ -101,7 +103,7 @@ def closest_two_level(origins, directions, t_min, t_max, top_bounds, top_child, 
             continue
         closest_hit_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
                               bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                              t[:m], inst_out[r0:r0 + m], kind[:m], prim_out[r0:r0 + m], u[:m], v[:m], 0,
+                              width, t[:m], inst_out[r0:r0 + m], kind[:m], prim_out[r0:r0 + m], u[:m], v[:m], 0,
                               n_blocks_of(m))
         _write_hits(origins, directions, r0, m, t, kind, u, v, inst_out, prim_out, inst_shape, tri_off, tri_normals,
                     inst_w2o, inst_sign, sph_center, t_out, uv_out, normal_out)
@@ -122,16 +124,16 @@ def occluded_one_level(origins, directions, t_min, t_max, w2o, moved,
 
 @nb.njit(**JIT)
 def occluded_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                       bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, band,
-                       out, first, k0, k1):
-    """test_occlusions through the two-level tree (instances.any_hit_instances)."""
+                       bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width,
+                       band, out, first, k0, k1):
+    """test_occlusions through the two-level tree (instance_packets.any_hit_instances)."""
     o, d, lo, hi = band_scratch(band)
     for k in range(k0, k1):
         r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
         if clean:
             any_hit_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
                               bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                              out[r0:r0 + m], 0, n_blocks_of(m))
+                              width, out[r0:r0 + m], 0, n_blocks_of(m))
 
 
 @nb.njit(**JIT)
