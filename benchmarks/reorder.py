@@ -33,6 +33,7 @@ from durer.accel.bvh import BVHAccelerator
 from durer.accel.compile import compile_scene
 from durer.kernels.bvh_single import blas_any, blas_closest, planes_closest
 from durer.kernels.point_order import _spread_bits, grid_bits
+from durer.rendering import path as path_module
 from durer.scene.graph import Group, Scene
 from durer.scene.shapes import TriangleMesh
 
@@ -195,10 +196,15 @@ def capture(xml: Path, res: int, spp: int) -> tuple[BVHAccelerator | None, list,
         return real_any(self, o, d, t_min, t_max, width)
 
     BVHAccelerator.closest_hit, BVHAccelerator.any_hit = rec_closest, rec_any
+    # the fused bounce (kernels/path_wavefront.py) walks the tree inside its own kernel: the unfused wavefront, which
+    # PathTracer takes for any other accelerator type, makes the same queries through the accelerator's API
+    fused_for = path_module.BVHAccelerator
+    path_module.BVHAccelerator = type("NotTheBVH", (), {})
     try:
         durer.render(durer.load(xml), res, res, samples=spp, seed=3)
     finally:
         BVHAccelerator.closest_hit, BVHAccelerator.any_hit = real_closest, real_any
+        path_module.BVHAccelerator = fused_for
     return (accs[0] if accs else None), closest, shadow
 
 
