@@ -32,12 +32,12 @@ def run_blocks(kernel, n_rays: int, *args) -> None:
     run_pieces(kernel, n_blocks(n_rays), *args)
 
 
-def run_pieces(kernel, total: int, *args) -> None:
-    """kernel(*args, k0, k1) over work items 0..total, on numba.get_num_threads() threads (the kernels are
-    nogil): a few pieces per thread from a shared pool, so an unlucky slow piece does not idle the other thread.
-    (Numba's parallel=True regions measured fragile on a loaded machine: their OpenMP threads wait for each other
-    at the region's end, and one descheduled thread stalls the whole call.)"""
-    threads = min(nb.get_num_threads(), total)
+def run_pieces(kernel, total: int, *args, threads: int | None = None) -> None:
+    """kernel(*args, k0, k1) over work items 0..total, on `threads` (default numba.get_num_threads()) threads
+    (the kernels are nogil): a few pieces per thread from a shared pool, so an unlucky slow piece does not idle
+    the other thread. (Numba's parallel=True regions measured fragile on a loaded machine: their OpenMP threads
+    wait for each other at the region's end, and one descheduled thread stalls the whole call.)"""
+    threads = min(threads or nb.get_num_threads(), total)
     if threads <= 1:
         kernel(*args, 0, total)
         return

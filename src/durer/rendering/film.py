@@ -127,9 +127,11 @@ def _weight(kind: int, r: float, dx: float, dy: float) -> float:
     return math.exp(-d2 / (2.0 * r * r))
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def _weights_at(kind: int, r: float, dx: np.ndarray, dy: np.ndarray, out: np.ndarray) -> None:
-    for i in nb.prange(dx.shape[0]):
+    # serial: a few ns a sample, and called while the path tracer's wavefronts run on the other threads, where a
+    # parallel region's OpenMP threads went on spinning after it and took 20% of the cores from the wavefronts
+    for i in range(dx.shape[0]):
         out[i] = _weight(kind, r, dx[i], dy[i])
 
 
