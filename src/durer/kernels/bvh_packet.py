@@ -136,6 +136,16 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
     for k in range(1, PACKET):
         tlo = min(tlo, rr[_TMIN + k])
     rr[_EXT + _EXT_TMIN] = tlo
+    nrx, nry, nrz = packet_constants(rr, kx0, ky0, kz0)
+    return True, nrx, nry, nrz, kx0, ky0, kz0
+
+
+@nb.njit(**JIT, inline="always")
+def packet_constants(rr, kx0, ky0, kz0):
+    """The per-ray constants of the watertight test for every ray of the packet rr (ray_setup's exact operations,
+    shear axes kx0, ky0, kz0 shared by the packet), its hit rows cleared, and the near-plane row offsets (nrx, nry,
+    nrz) from the reciprocal directions' extremes, as in ray_setup (a zero component counts as positive there too).
+    Used by packet_setup and by instance_packets for rays moved into an instance's object space."""
     for k in range(PACKET):  # rows by selects, not run-time offsets, so LLVM sees no overlap and vectorises
         dx, dy, dz = rr[_DX + k], rr[_DY + k], rr[_DZ + k]
         ox, oy, oz = rr[_OX + k], rr[_OY + k], rr[_OZ + k]
@@ -150,11 +160,10 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
         rr[_E2 + k] = 0.0
         rr[_DET + k] = 1.0
         rr[_PRIM + k] = -np.inf
-    # near-plane row offsets as in ray_setup (a zero component counts as positive there too)
-    nrx = 12 if rr[_EXT + _EXT_INV] < 0.0 else 0
-    nry = 16 if rr[_EXT + _EXT_INV + 2] < 0.0 else 4
-    nrz = 20 if rr[_EXT + _EXT_INV + 4] < 0.0 else 8
-    return True, nrx, nry, nrz, kx0, ky0, kz0
+    nrx = HI_X if rr[_EXT + _EXT_INV] < 0.0 else LO_X
+    nry = HI_Y if rr[_EXT + _EXT_INV + 2] < 0.0 else LO_Y
+    nrz = HI_Z if rr[_EXT + _EXT_INV + 4] < 0.0 else LO_Z
+    return nrx, nry, nrz
 
 
 @nb.njit(**JIT, inline="always")

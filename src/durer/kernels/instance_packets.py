@@ -27,22 +27,16 @@ from .bvh_packet import (
     _EXT_INV,
     _EXT_TMIN,
     _NROW,
-    _OKX,
-    _OKY,
-    _OKZ,
     _OX,
     _OY,
     _OZ,
     _PRIM,
-    _SX,
-    _SY,
-    _SZ,
     _TMIN,
     _nonzero,
     _packet_far,
     _packet_slab,
-    _pick,
     chunk_rays,
+    packet_constants,
     packet_setup,
     packet_traverse,
 )
@@ -111,23 +105,7 @@ def _object_packet(rr, ro, w2o):
         ro[_EXT + 2 * axis], ro[_EXT + 2 * axis + 1] = lo, hi
         ro[_EXT + _EXT_INV + 2 * axis], ro[_EXT + _EXT_INV + 2 * axis + 1] = 1.0 / dhi, 1.0 / dlo
     ro[_EXT + _EXT_TMIN] = rr[_EXT + _EXT_TMIN]
-    for k in range(PACKET):  # packet_setup's per-ray constants, the same operations
-        dx, dy, dz = ro[_DX + k], ro[_DY + k], ro[_DZ + k]
-        ox, oy, oz = ro[_OX + k], ro[_OY + k], ro[_OZ + k]
-        dkz = _pick(kz0, dx, dy, dz)
-        ro[_SX + k] = _pick(kx0, dx, dy, dz) / dkz
-        ro[_SY + k] = _pick(ky0, dx, dy, dz) / dkz
-        ro[_SZ + k] = 1.0 / dkz
-        ro[_OKX + k] = _pick(kx0, ox, oy, oz)
-        ro[_OKY + k] = _pick(ky0, ox, oy, oz)
-        ro[_OKZ + k] = _pick(kz0, ox, oy, oz)
-        ro[_E1 + k] = 0.0
-        ro[_E2 + k] = 0.0
-        ro[_DET + k] = 1.0
-        ro[_PRIM + k] = -np.inf
-    nrx = HI_X if ro[_EXT + _EXT_INV] < 0.0 else LO_X
-    nry = HI_Y if ro[_EXT + _EXT_INV + 2] < 0.0 else LO_Y
-    nrz = HI_Z if ro[_EXT + _EXT_INV + 4] < 0.0 else LO_Z
+    nrx, nry, nrz = packet_constants(ro, kx0, ky0, kz0)
     return True, nrx, nry, nrz, kx0, ky0, kz0
 
 
