@@ -62,8 +62,10 @@ def test_sobol_pairs_are_stratified():
 
 
 def test_same_image_whatever_threads_and_batch(monkeypatch):
-    """Numba threads 1 vs all, 2 shading workers vs 3, wavefronts of 2^16 vs 37 paths: the same image to the bit;
-    another seed gives another image."""
+    """The same image to the bit whether one thread traces everything (Numba threads 1: one wavefront at a time),
+    one wavefront splits its bounces over every thread (2^16-path wavefronts: this image is one), or up to
+    min(WORKERS, threads) wavefronts of 37 paths run at once with the threads shared out; another seed gives another
+    image."""
     numba = pytest.importorskip("numba")
     scene = durer.load(EXAMPLES / "caustic.xml")
     kw = dict(samples=2, max_depth=6)
