@@ -34,3 +34,23 @@ def _course_mesh_path():
     if COURSE.is_dir():
         os.environ["DURER_MESH_PATH"] = os.pathsep.join(str(p) for p in sorted(COURSE.glob("assignment*")))
     yield
+
+
+def pinhole_rays(rng, res: int, ortho: bool, ortho_span: float = 4.0):
+    """res x res camera rays (origins, directions (res * res, 3)) in image order, so consecutive rays are coherent
+    and take the packet path, from a random eye 9 from the origin looking at it; orthographic: parallel rays from
+    a grid of origins ortho_span wide on each side of the eye."""
+    import numpy as np
+
+    eye = rng.normal(size=3)
+    eye *= 9.0 / np.linalg.norm(eye)
+    w = -eye / np.linalg.norm(eye)
+    u = np.cross(w, rng.normal(size=3))
+    u /= np.linalg.norm(u)
+    v = np.cross(w, u)
+    s = (np.arange(res) + 0.5) / res * 2 - 1
+    a, b = np.meshgrid(s, s)
+    side = a[..., None] * u + b[..., None] * v
+    if ortho:
+        return (eye + ortho_span * side).reshape(-1, 3), np.broadcast_to(w, (res * res, 3)).copy()
+    return np.broadcast_to(eye, (res * res, 3)).copy(), (w + 0.4 * side).reshape(-1, 3)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numba
 import numpy as np
 import pytest
+from conftest import pinhole_rays
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -74,21 +75,8 @@ def test_bvh_equals_brute_force_on_random_scenes(seed, n_tri, n_sph, n_plane, or
 
 
 def _pinhole_rays(rng: np.random.Generator, res: int, ortho: bool):
-    """res x res camera rays in image order (so consecutive rays are coherent and take the packet path), from a
-    random eye towards the origin; orthographic: parallel rays from a grid of origins."""
-    eye = rng.normal(size=3)
-    eye *= 9.0 / np.linalg.norm(eye)
-    w = -eye / np.linalg.norm(eye)
-    u = np.cross(w, rng.normal(size=3))
-    u /= np.linalg.norm(u)
-    v = np.cross(w, u)
-    s = (np.arange(res) + 0.5) / res * 2 - 1
-    a, b = np.meshgrid(s, s)
-    if ortho:
-        o = eye + 4.0 * (a[..., None] * u + b[..., None] * v)
-        return o.reshape(-1, 3), np.broadcast_to(w, (res * res, 3)).copy()
-    d = w + 0.4 * (a[..., None] * u + b[..., None] * v)
-    return np.broadcast_to(eye, (res * res, 3)).copy(), d.reshape(-1, 3)
+    """res x res camera rays in image order (conftest.pinhole_rays: orthographic ones 4 wide on each side)."""
+    return pinhole_rays(rng, res, ortho)
 
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from conftest import pinhole_rays
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -44,18 +45,7 @@ def _scene(rng: np.random.Generator, n_tri: int, copies: int, sphere: bool) -> T
 
 def _camera(rng: np.random.Generator, ortho: bool) -> tuple[np.ndarray, np.ndarray]:
     """RES x RES camera rays in image order from a random eye towards the origin (orthographic: parallel)."""
-    eye = rng.normal(size=3)
-    eye *= 9.0 / np.linalg.norm(eye)
-    w = -eye / np.linalg.norm(eye)
-    u = np.cross(w, rng.normal(size=3))
-    u /= np.linalg.norm(u)
-    v = np.cross(w, u)
-    s = (np.arange(RES) + 0.5) / RES * 2 - 1
-    a, b = np.meshgrid(s, s)
-    side = a[..., None] * u + b[..., None] * v
-    if ortho:
-        return (eye + 3.0 * side).reshape(-1, 3), np.broadcast_to(w, (RES * RES, 3)).copy()
-    return np.broadcast_to(eye, (RES * RES, 3)).copy(), (w + 0.4 * side).reshape(-1, 3)
+    return pinhole_rays(rng, RES, ortho, ortho_span=3.0)
 
 
 def _closest(tree: TwoLevelBVH, o, d, lo, hi, width: int):
