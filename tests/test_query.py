@@ -377,3 +377,46 @@ def test_float32_rays_give_the_float64_results_and_errors(sphere_mesh):
     bad[7, 3:] = 0.0
     with pytest.raises(ValueError, match="direction 7 is zero"):
         s.test_occlusions(bad[:, :3], bad[:, 3:])
+
+
+def _every_query(s: RaycastingScene, rng) -> list[np.ndarray]:
+    """The outputs of every ray and point query on rays and points around the unit sphere: camera rays (packets),
+    random rays (one at a time), and points for distances and winding numbers."""
+    eye = np.array([0.3, 0.2, 4.0])
+    j, i = np.meshgrid(np.arange(32), np.arange(32))
+    d = np.stack([(j - 15.5) / 40, (15.5 - i) / 40, -np.ones_like(j, dtype=float)], -1).reshape(-1, 3)
+    o = rng.uniform(-2, 2, (2000, 3))
+    rays = [(np.broadcast_to(eye, d.shape), d), (o, rng.uniform(-1, 1, (2000, 3)) - o)]
+    out = []
+    for origins, directions in rays:
+        out += list(s.cast_rays(origins, directions).values())
+        out += [s.test_occlusions(origins, directions), s.count_intersections(origins, directions)]
+        out += list(s.list_intersections(origins, directions).values())
+    points = rng.uniform(-1.5, 1.5, (1000, 3))
+    out += list(s.compute_closest_points(points).values())
+    out += [s.compute_distance(points), s.compute_winding_number(points), s.compute_signed_distance(points)]
+    return out
+
+
+def test_float32_leaves_give_the_float64_leaves_answers_to_the_bit(sphere_mesh, monkeypatch):
+    """A mesh whose vertices are all float32 values (a PLY scan, a float32 array) keeps its leaf triangles in
+    float32 (half the bytes a traversal reads), and every query answers exactly as with float64 leaves: the kernels
+    widen each coordinate as they load it. Vertices that float32 cannot hold keep float64 leaves."""
+    import durer.accel.bvh as bvh
+
+    vertices = sphere_mesh.vertices.astype(np.float32).astype(np.float64)
+    s = RaycastingScene()
+    s.add_triangles(vertices, sphere_mesh.faces)
+    s.build()
+    assert s._bvh.packed.blas[3].dtype == np.float32
+    narrow = _every_query(s, np.random.default_rng(3))
+    monkeypatch.setattr(bvh, "narrow_leaves", lambda leaf_tri: leaf_tri)
+    wide = RaycastingScene()
+    wide.add_triangles(vertices, sphere_mesh.faces)
+    wide.build()
+    assert wide._bvh.packed.blas[3].dtype == np.float64
+    for got, ref in zip(narrow, _every_query(wide, np.random.default_rng(3)), strict=True):
+        np.testing.assert_array_equal(got, ref)
+    monkeypatch.undo()
+    exact = bvh.build_tree(np.full((1, 3, 3), 0.1), np.zeros((0, 3)), np.zeros((0, 3)))
+    assert exact.leaf_tri.dtype == np.float64  # 0.1 is no float32 value

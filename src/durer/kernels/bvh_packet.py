@@ -201,9 +201,13 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
         if p >= 0:
             base = j * 9
             fp = np.float64(p)
-            ax0, ay0, az0 = leaf_tri[base + kx], leaf_tri[base + ky], leaf_tri[base + kz]
-            bx0, by0, bz0 = leaf_tri[base + 3 + kx], leaf_tri[base + 3 + ky], leaf_tri[base + 3 + kz]
-            cx0, cy0, cz0 = leaf_tri[base + 6 + kx], leaf_tri[base + 6 + ky], leaf_tri[base + 6 + kz]
+            # widened to float64 as they load (the leaves may be float32: kernels/layout.py)
+            ax0, ay0, az0 = (np.float64(leaf_tri[base + kx]), np.float64(leaf_tri[base + ky]),
+                             np.float64(leaf_tri[base + kz]))
+            bx0, by0, bz0 = (np.float64(leaf_tri[base + 3 + kx]), np.float64(leaf_tri[base + 3 + ky]),
+                             np.float64(leaf_tri[base + 3 + kz]))
+            cx0, cy0, cz0 = (np.float64(leaf_tri[base + 6 + kx]), np.float64(leaf_tri[base + 6 + ky]),
+                             np.float64(leaf_tri[base + 6 + kz]))
             if not _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, rr):
                 continue
             for k in range(PACKET):

@@ -31,7 +31,7 @@ from .simd import entry4, prefetch
 # unsigned index constants of the node test: near row + far row of each axis, node size
 _UX, _UY, _UZ = np.uint64(LO_X + HI_X), np.uint64(LO_Y + HI_Y), np.uint64(LO_Z + HI_Z)
 _UNODE = np.uint64(NODE_FLOATS)
-_U8, _U9, _U16 = np.uint64(8), np.uint64(9), np.uint64(16)
+_U4, _U9, _U16 = np.uint64(4), np.uint64(9), np.uint64(16)
 _NO_LEAVES = np.empty(0)  # prefetch_children's leaf_tri where the walk does not know the leaves
 
 
@@ -72,17 +72,20 @@ def node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_
 
 
 @nb.njit(**JIT, inline="always")
-def _prefetch_child(bounds, leaf_tri, code):
-    """Prefetch what child `code` points at: an inner node's 96-byte block (two cache lines), or a leaf's first
-    triangle (72 bytes) when leaf_tri is given (empty: nodes only). A leaf's code selects node 0 and an inner
-    node's leaf slot 0 for the other, so no branch: a prefetch never faults and a cached line costs nothing."""
-    base = np.uint64(max(code, 0)) * _UNODE
+def _prefetch_child(bounds, leaf_tri, child, code):
+    """Prefetch what child `code` points at: an inner node's 96-byte block of boxes (two cache lines) and its row
+    of child codes (the next load the walk waits on there), or a leaf's first triangle (72 or 36 bytes) when leaf_tri
+    is given (empty: nodes only). A leaf's code selects node 0 and an inner node's leaf slot 0 for the other, so
+    no branch: a prefetch never faults and a cached line costs nothing."""
+    node = np.uint64(max(code, 0))
+    base = node * _UNODE
     prefetch(bounds, base)
     prefetch(bounds, base + _U16)
-    if leaf_tri.shape[0] > 0:
+    prefetch(child, node * _U4)
+    if leaf_tri.shape[0] > 0:  # the first triangle's line and the next (float32 leaves: the next two triangles)
         tri = np.uint64((-min(code, -1) - 1) >> LEAF_COUNT_BITS) * _U9
         prefetch(leaf_tri, tri)
-        prefetch(leaf_tri, tri + _U8)
+        prefetch(leaf_tri, tri + np.uint64(64 // leaf_tri.itemsize))
 
 
 @nb.njit(**JIT, inline="always")
@@ -93,10 +96,10 @@ def prefetch_children(bounds, leaf_tri, child, node):
     time of the closest-hit walk without it (bunny and its 1.1M version, incoherent rays; benchmarks/README.md),
     even though it also fetches children that the test then rejects (prefetching only the entered ones was
     slower: the address then waits for the test)."""
-    _prefetch_child(bounds, leaf_tri, child[node, 0])
-    _prefetch_child(bounds, leaf_tri, child[node, 1])
-    _prefetch_child(bounds, leaf_tri, child[node, 2])
-    _prefetch_child(bounds, leaf_tri, child[node, 3])
+    _prefetch_child(bounds, leaf_tri, child, child[node, 0])
+    _prefetch_child(bounds, leaf_tri, child, child[node, 1])
+    _prefetch_child(bounds, leaf_tri, child, child[node, 2])
+    _prefetch_child(bounds, leaf_tri, child, child[node, 3])
 
 
 @nb.njit(**JIT, inline="always")

@@ -32,6 +32,7 @@ from .layout import (
     WIDTH,
     lane_box,
     leaf_range,
+    leaf_vertices,
 )
 from .small_sort import insert_ascending
 
@@ -180,9 +181,7 @@ def blas_closest_point(bounds, child, root, leaf_prim, leaf_tri, px, py, pz, bes
             if p < 0:
                 continue
             o = j * 9
-            qx, qy, qz, v, w = closest_on_triangle(px, py, pz, leaf_tri[o], leaf_tri[o + 1], leaf_tri[o + 2],
-                                                   leaf_tri[o + 3], leaf_tri[o + 4], leaf_tri[o + 5],
-                                                   leaf_tri[o + 6], leaf_tri[o + 7], leaf_tri[o + 8])
+            qx, qy, qz, v, w = closest_on_triangle(px, py, pz, *leaf_vertices(leaf_tri, o))
             dx, dy, dz = qx - px, qy - py, qz - pz
             dd = dx * dx + dy * dy + dz * dz
             if dd < best2:

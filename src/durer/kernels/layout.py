@@ -12,7 +12,10 @@ Node 0 is the root of the first tree, so 0 never names a child. A leaf's items a
 the leaf arrays, stored in leaf order so a leaf reads one contiguous block:
 
     leaf_prim[slot]  int32: >= 0 triangle id, < 0 sphere -(s + 1) into the sphere arrays
-    leaf_tri[slot]   float64 (9,): the triangle's vertices (unused for spheres)
+    leaf_tri[slot]   float32 or float64 (9,): the triangle's vertices (unused for spheres); float32 when every
+                     vertex of the tree is a float32 value (accel/bvh.build_tree), which halves the leaves' memory
+                     traffic and changes no result: kernels widen each coordinate to float64 as they load it
+                     (leaf_vertices) and do all arithmetic in float64, exactly as on float64 leaves
 
 Boxes are float32 to halve the traversal's memory traffic; the slab test itself runs in float64 against boxes
 rounded outwards, with the far distance widened by a few ulps (Ize 2013), so rounding never culls a real hit.
@@ -76,6 +79,15 @@ def lane_box(bounds, base):
     """The box of the lane at flat offset `base` (node * NODE_FLOATS + lane): lo x, y, z, hi x, y, z."""
     return (bounds[base + LO_X], bounds[base + LO_Y], bounds[base + LO_Z],
             bounds[base + HI_X], bounds[base + HI_Y], bounds[base + HI_Z])
+
+
+@nb.njit(**JIT, inline="always")
+def leaf_vertices(leaf_tri, o):
+    """The 9 coordinates at leaf_tri[o:o+9] (v0 xyz, v1 xyz, v2 xyz) as float64, whatever the leaves' dtype:
+    arithmetic between two float32 leaf values would otherwise round in float32."""
+    return (np.float64(leaf_tri[o]), np.float64(leaf_tri[o + 1]), np.float64(leaf_tri[o + 2]),
+            np.float64(leaf_tri[o + 3]), np.float64(leaf_tri[o + 4]), np.float64(leaf_tri[o + 5]),
+            np.float64(leaf_tri[o + 6]), np.float64(leaf_tri[o + 7]), np.float64(leaf_tri[o + 8]))
 
 
 @nb.njit(**JIT, inline="always")

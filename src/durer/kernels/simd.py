@@ -68,8 +68,8 @@ def entry4(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, o, in
 
 @intrinsic
 def prefetch(typingctx, array, offset):
-    """Ask the cache to fetch element `offset` (uint64) of a 1-D array ahead of its use (llvm.prefetch, read,
-    high locality); never faults, so any offset is allowed."""
+    """Ask the cache to fetch element `offset` (uint64, counted flat from the start of a C-contiguous array of any
+    dimension) ahead of its use (llvm.prefetch, read, high locality); never faults, so any offset is allowed."""
     sig = types.void(array, offset)
 
     def codegen(context, builder, signature, args):

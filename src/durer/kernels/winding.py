@@ -30,7 +30,7 @@ import numpy as np
 
 from .bvh_single import blas_all
 from .closest import POINTS_PER_BLOCK
-from .layout import HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, WIDTH, leaf_range
+from .layout import HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, WIDTH, leaf_range, leaf_vertices
 
 FOUR_PI = 4.0 * np.pi
 
@@ -39,9 +39,10 @@ FOUR_PI = 4.0 * np.pi
 def solid_angle(leaf_tri, o, px, py, pz):
     """Signed solid angle of the triangle at leaf_tri[o:o+9] seen from p (Van Oosterom and Strackee 1983):
     positive when p sees its back (the side its counter-clockwise normal points away from). 0 at a vertex."""
-    ax, ay, az = leaf_tri[o] - px, leaf_tri[o + 1] - py, leaf_tri[o + 2] - pz
-    bx, by, bz = leaf_tri[o + 3] - px, leaf_tri[o + 4] - py, leaf_tri[o + 5] - pz
-    cx, cy, cz = leaf_tri[o + 6] - px, leaf_tri[o + 7] - py, leaf_tri[o + 8] - pz
+    x0, y0, z0, x1, y1, z1, x2, y2, z2 = leaf_vertices(leaf_tri, o)
+    ax, ay, az = x0 - px, y0 - py, z0 - pz
+    bx, by, bz = x1 - px, y1 - py, z1 - pz
+    cx, cy, cz = x2 - px, y2 - py, z2 - pz
     la = np.sqrt(ax * ax + ay * ay + az * az)
     lb = np.sqrt(bx * bx + by * by + bz * bz)
     lc = np.sqrt(cx * cx + cy * cy + cz * cz)
@@ -55,13 +56,14 @@ def solid_angle(leaf_tri, o, px, py, pz):
 def _add_triangle(leaf_tri, o, acc):
     """Accumulate one triangle into acc: area vector (0:3), area * centroid (3:6), unsigned area (6), and
     centroid (x) area vector (7:16), the raw sums the lane moments are made of."""
-    ux, uy, uz = leaf_tri[o + 3] - leaf_tri[o], leaf_tri[o + 4] - leaf_tri[o + 1], leaf_tri[o + 5] - leaf_tri[o + 2]
-    vx, vy, vz = leaf_tri[o + 6] - leaf_tri[o], leaf_tri[o + 7] - leaf_tri[o + 1], leaf_tri[o + 8] - leaf_tri[o + 2]
+    x0, y0, z0, x1, y1, z1, x2, y2, z2 = leaf_vertices(leaf_tri, o)
+    ux, uy, uz = x1 - x0, y1 - y0, z1 - z0
+    vx, vy, vz = x2 - x0, y2 - y0, z2 - z0
     n0, n1, n2 = 0.5 * (uy * vz - uz * vy), 0.5 * (uz * vx - ux * vz), 0.5 * (ux * vy - uy * vx)
     a = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    c0 = (leaf_tri[o] + leaf_tri[o + 3] + leaf_tri[o + 6]) / 3.0
-    c1 = (leaf_tri[o + 1] + leaf_tri[o + 4] + leaf_tri[o + 7]) / 3.0
-    c2 = (leaf_tri[o + 2] + leaf_tri[o + 5] + leaf_tri[o + 8]) / 3.0
+    c0 = (x0 + x1 + x2) / 3.0
+    c1 = (y0 + y1 + y2) / 3.0
+    c2 = (z0 + z1 + z2) / 3.0
     acc[0] += n0
     acc[1] += n1
     acc[2] += n2
@@ -141,7 +143,9 @@ def lane_moments(bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r,
                     if leaf_prim[j] >= 0:
                         for v in range(3):
                             o = j * 9 + 3 * v
-                            dx, dy, dz = leaf_tri[o] - cx, leaf_tri[o + 1] - cy, leaf_tri[o + 2] - cz
+                            dx = np.float64(leaf_tri[o]) - cx
+                            dy = np.float64(leaf_tri[o + 1]) - cy
+                            dz = np.float64(leaf_tri[o + 2]) - cz
                             tight = max(tight, dx * dx + dy * dy + dz * dz)
                 tight = np.sqrt(tight)
             mom_r[out] = min(np.sqrt(r2), tight)
