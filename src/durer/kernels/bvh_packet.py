@@ -262,7 +262,10 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
     scratch. A node's child boxes are tested against the packet as a whole (_packet_slab: bounds over its rays,
     conservative to the bit), children are ordered by the packet's entry distance, which the stack keeps: a
     node is skipped when it lies beyond every ray's closest hit so far. Leaves met in a node are tested at once,
-    against all the packet's rays (the triangle test is exact, so a ray outside the leaf's box just misses)."""
+    against all the packet's rays (the triangle test is exact, so a ray outside the leaf's box just misses).
+    Callers pass root as int32 and any_mode as a run-time np.bool_, never a literal: one compiled version then
+    serves closest and any hit, one tree and instances (a literal compiled four, ~2.6 s each on a cold cache; no
+    speed difference measured)."""
     # the packet's extremes (packet_setup): origins, reciprocal directions (one sign per axis), t_min
     oxl, oxh, oyl, oyh, ozl, ozh = rr[_EXT], rr[_EXT + 1], rr[_EXT + 2], rr[_EXT + 3], rr[_EXT + 4], rr[_EXT + 5]
     ixl, ixh = rr[_EXT + _EXT_INV], rr[_EXT + _EXT_INV + 1]

@@ -63,8 +63,8 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                                                       rr[_DX + k], rr[_DY + k], rr[_DZ + k], rr[_TMIN + k],
                                                       rr[_BEST + k])
                     rr[_BEST + k] = best
-                packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, False)
+                packet_traverse(bounds, child, np.int32(0), leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, np.bool_(False))
                 for k in range(PACKET):  # barycentrics of every ray in a loop that vectorises (0 / 1 without a hit)
                     rr[_E1 + k], rr[_E2 + k] = rr[_E1 + k] / rr[_DET + k], rr[_E2 + k] / rr[_DET + k]
                 for k in range(PACKET):
@@ -118,8 +118,8 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                                                rr[_DX + k], rr[_DY + k], rr[_DZ + k], rr[_TMIN + k], rr[_BEST + k])
                     if pprim >= 0:
                         rr[_BEST + k] = -np.inf
-                packet_traverse(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, True)
+                packet_traverse(bounds, child, np.int32(0), leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, np.bool_(True))
                 for k in range(PACKET):
                     out[idx[k]] = rr[_BEST + k] == -np.inf
                 continue

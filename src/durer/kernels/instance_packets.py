@@ -118,7 +118,7 @@ def _trace_instance(k, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, 
     coherent, nrx, nry, nrz, kx, ky, kz = _object_packet(rr, ro, inst_w2o[k])
     if coherent:
         packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                        nrx, nry, nrz, kx, ky, kz, ro, stack_node, stack_t, key, order, any_mode)
+                        nrx, nry, nrz, kx, ky, kz, ro, stack_node, stack_t, key, order, np.bool_(any_mode))
         for r in range(PACKET):
             if any_mode:
                 rr[_BEST + r] = ro[_BEST + r]
