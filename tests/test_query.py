@@ -399,17 +399,22 @@ def _every_query(s: RaycastingScene, rng) -> list[np.ndarray]:
 
 
 def test_float32_leaves_give_the_float64_leaves_answers_to_the_bit(sphere_mesh, monkeypatch):
-    """A mesh whose vertices are all float32 values (a PLY scan, a float32 array) keeps its leaf triangles in
-    float32 (half the bytes a traversal reads), and every query answers exactly as with float64 leaves: the kernels
-    widen each coordinate as they load it. Vertices that float32 cannot hold keep float64 leaves."""
+    """A large mesh whose vertices are all float32 values (a PLY scan, a float32 array) keeps its leaf triangles
+    in float32 (half the bytes a traversal reads), and every query answers exactly as with float64 leaves: the
+    kernels widen each coordinate as they load it. Vertices that float32 cannot hold, and small meshes, keep
+    float64 leaves. (The size threshold is lowered here so that the icosphere narrows.)"""
     import durer.accel.bvh as bvh
 
+    small = bvh.build_tree(np.zeros((3, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)))
+    assert small.leaf_tri.dtype == np.float64  # exact, but below NARROW_LEAVES_FROM
+    monkeypatch.setattr(bvh, "NARROW_LEAVES_FROM", 1)
     vertices = sphere_mesh.vertices.astype(np.float32).astype(np.float64)
     s = RaycastingScene()
     s.add_triangles(vertices, sphere_mesh.faces)
     s.build()
     assert s._bvh.packed.blas[3].dtype == np.float32
     narrow = _every_query(s, np.random.default_rng(3))
+    narrow_leaves = bvh.narrow_leaves
     monkeypatch.setattr(bvh, "narrow_leaves", lambda leaf_tri: leaf_tri)
     wide = RaycastingScene()
     wide.add_triangles(vertices, sphere_mesh.faces)
@@ -417,6 +422,6 @@ def test_float32_leaves_give_the_float64_leaves_answers_to_the_bit(sphere_mesh, 
     assert wide._bvh.packed.blas[3].dtype == np.float64
     for got, ref in zip(narrow, _every_query(wide, np.random.default_rng(3)), strict=True):
         np.testing.assert_array_equal(got, ref)
-    monkeypatch.undo()
-    exact = bvh.build_tree(np.full((1, 3, 3), 0.1), np.zeros((0, 3)), np.zeros((0, 3)))
-    assert exact.leaf_tri.dtype == np.float64  # 0.1 is no float32 value
+    monkeypatch.setattr(bvh, "narrow_leaves", narrow_leaves)
+    inexact = bvh.build_tree(np.full((1, 3, 3), 0.1), np.zeros((0, 3)), np.zeros((0, 3)))
+    assert inexact.leaf_tri.dtype == np.float64  # 0.1 is no float32 value

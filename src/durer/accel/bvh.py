@@ -63,10 +63,19 @@ def build_tree(triangles: np.ndarray, sphere_lo: np.ndarray, sphere_hi: np.ndarr
     return WideBVH(bounds, child, leaf_prim, narrow_leaves(leaf_tri), depth)
 
 
+# Trees with fewer leaf slots keep float64 leaves: theirs fit in a core's L2 cache (16,384 x 72 bytes = 1.2 MB), so
+# float32 would save no memory traffic, only cost every kernel a second compiled version (and the test suite
+# a minute and a half).
+NARROW_LEAVES_FROM = 16_384
+
+
 def narrow_leaves(leaf_tri: np.ndarray) -> np.ndarray:
-    """leaf_tri as float32 when every coordinate is a float32 value (meshes read from PLY, STL, glTF or given as
-    float32 arrays), else unchanged: half the bytes a traversal reads per triangle, and the same results to the
-    bit, since the kernels widen each coordinate to float64 as they load it (kernels/layout.leaf_vertices)."""
+    """leaf_tri as float32 when it is large (NARROW_LEAVES_FROM slots) and every coordinate is a float32 value
+    (meshes read from PLY, STL, glTF or given as float32 arrays), else unchanged: half the bytes a traversal
+    reads per triangle, and the same results to the bit, since the kernels widen each coordinate to float64 as
+    they load it (kernels/layout.leaf_vertices)."""
+    if len(leaf_tri) < NARROW_LEAVES_FROM:
+        return leaf_tri
     narrow = leaf_tri.astype(np.float32)
     return narrow if np.array_equal(narrow, leaf_tri) else leaf_tri
 

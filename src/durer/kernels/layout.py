@@ -12,10 +12,11 @@ Node 0 is the root of the first tree, so 0 never names a child. A leaf's items a
 the leaf arrays, stored in leaf order so a leaf reads one contiguous block:
 
     leaf_prim[slot]  int32: >= 0 triangle id, < 0 sphere -(s + 1) into the sphere arrays
-    leaf_tri[slot]   float32 or float64 (9,): the triangle's vertices (unused for spheres); float32 when every
-                     vertex of the tree is a float32 value (accel/bvh.build_tree), which halves the leaves' memory
-                     traffic and changes no result: kernels widen each coordinate to float64 as they load it
-                     (leaf_vertices) and do all arithmetic in float64, exactly as on float64 leaves
+    leaf_tri[slot]   float32 or float64 (9,): the triangle's vertices (unused for spheres); float32 when the
+                     tree is large and every vertex is a float32 value (accel/bvh.narrow_leaves), which halves
+                     the leaves' memory traffic and changes no result: kernels widen each coordinate to
+                     float64 as they load it (leaf_vertices) and do all arithmetic in float64, as on float64
+                     leaves
 
 Boxes are float32 to halve the traversal's memory traffic; the slab test itself runs in float64 against boxes
 rounded outwards, with the far distance widened by a few ulps (Ize 2013), so rounding never culls a real hit.
