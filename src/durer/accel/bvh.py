@@ -39,7 +39,7 @@ class WideBVH:
     bounds: np.ndarray     # (N, 6, 4) float32
     child: np.ndarray      # (N, 4) int32
     leaf_prim: np.ndarray  # (M,) int32: triangle id, or -(sphere + 1)
-    leaf_tri: np.ndarray   # (M, 9) triangle vertices in leaf order: float32 if exact (narrow_leaves), else float64
+    leaf_tri: np.ndarray   # (M, 9) triangle vertices in leaf order: float32 if large and exact (narrow_leaves)
     depth: int
 
     @property
