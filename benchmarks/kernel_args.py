@@ -23,7 +23,7 @@ import numpy as np
 import trimesh
 
 from durer.accel.bvh import build_tree
-from durer.kernels.bvh_single import blas_closest
+from durer.kernels.bvh.single import blas_closest
 
 MESH = Path(__file__).resolve().parents[2] / "shared" / "meshes" / "bun_zipper.ply"
 Tree = namedtuple("Tree", "bounds child leaf_prim leaf_tri sph_center sph_radius sph_w2o")

@@ -20,7 +20,7 @@ import numpy as np
 from raycases import SHARED, camera_rays, load_mesh, median_time, random_rays
 
 from durer import RaycastingScene
-from durer.kernels.layout import LEAF_COUNT_MASK, PACKET, TILE
+from durer.kernels.bvh.layout import LEAF_COUNT_MASK, PACKET, TILE
 
 
 @nb.njit(cache=True)

@@ -1,4 +1,4 @@
-"""Where the one-ray closest-hit traversal (kernels/bvh_single.blas_closest) spends its time on incoherent rays.
+"""Where the one-ray closest-hit traversal (kernels/bvh/single.blas_closest) spends its time on incoherent rays.
 
     NUMBA_NUM_THREADS=1 PYTHONPATH=src python benchmarks/profile_single.py [--mesh bun_zipper_subdiv2.ply]
 
@@ -21,9 +21,9 @@ import numpy as np
 from single_ray import cpu_ns_per_ray, incoherent_case
 
 from durer.accel.bvh import build_tree
-from durer.kernels.bvh_single import blas_closest, node_dists4, push_nearest_first, ray_setup
+from durer.kernels.bvh.layout import NODE_FLOATS, leaf_range
+from durer.kernels.bvh.single import blas_closest, node_dists4, push_nearest_first, ray_setup
 from durer.kernels.intersect import watertight_triangle
-from durer.kernels.layout import NODE_FLOATS, leaf_range
 
 
 @nb.njit(cache=False)

@@ -31,8 +31,8 @@ from raycases import SHARED, load_mesh, random_rays
 import durer
 from durer.accel.bvh import BVHAccelerator
 from durer.accel.compile import compile_scene
-from durer.kernels.bvh_single import blas_any, blas_closest, planes_closest
-from durer.kernels.point_order import _spread_bits, grid_bits
+from durer.kernels.bvh.single import blas_any, blas_closest, planes_closest
+from durer.kernels.points.order import _spread_bits, grid_bits
 from durer.rendering import path as path_module
 from durer.scene.graph import Group, Scene
 from durer.scene.shapes import TriangleMesh
@@ -196,7 +196,7 @@ def capture(xml: Path, res: int, spp: int) -> tuple[BVHAccelerator | None, list,
         return real_any(self, o, d, t_min, t_max, width)
 
     BVHAccelerator.closest_hit, BVHAccelerator.any_hit = rec_closest, rec_any
-    # the fused bounce (kernels/path_wavefront.py) walks the tree inside its own kernel: the unfused wavefront, which
+    # the fused bounce (kernels/path/wavefront.py) walks the tree inside its own kernel: the unfused wavefront, which
     # PathTracer takes for any other accelerator type, makes the same queries through the accelerator's API
     fused_for = path_module.BVHAccelerator
     path_module.BVHAccelerator = type("NotTheBVH", (), {})

@@ -1,4 +1,4 @@
-"""CPU time of the one-ray traversal (kernels/bvh_single.py) on incoherent rays, for alternating A/B runs:
+"""CPU time of the one-ray traversal (kernels/bvh/single.py) on incoherent rays, for alternating A/B runs:
 
     for i in 1 2 3 4 5; do
         NUMBA_NUM_THREADS=1 PYTHONPATH=old/src python benchmarks/single_ray.py

@@ -153,7 +153,7 @@ def test_smooth_normals_shade_in_closed_form():
 
 def test_a_smooth_normal_facing_away_is_bent_towards_the_viewer():
     from durer.accel.hits import Hits
-    from durer.kernels.layout import TRIANGLE
+    from durer.kernels.common import TRIANGLE
     from durer.rendering.raycaster import smooth_normals
 
     mesh = TriangleMesh([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]], normals=np.tile([1.0, 0, 0.05], (3, 1)))

@@ -1,4 +1,4 @@
-"""kernels/closest.py: Ericson's point-triangle test and Eberly's point-ellipsoid bisection against independent
+"""kernels/points/closest.py: Ericson's point-triangle test and Eberly's point-ellipsoid bisection against independent
 NumPy references, including points exactly on vertices, edges and faces."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from durer.kernels.closest import closest_on_ellipsoid, closest_on_triangle
+from durer.kernels.points.closest import closest_on_ellipsoid, closest_on_triangle
 
 coord = st.floats(-10, 10, allow_nan=False, allow_infinity=False)
 vec = st.tuples(coord, coord, coord).map(np.array)

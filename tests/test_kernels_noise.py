@@ -1,4 +1,4 @@
-"""Perlin's improved noise (kernels/noise.py): the reference implementation's values and the properties textures
+"""Perlin's improved noise (kernels/course/noise.py): the reference implementation's values and the properties textures
 rely on (zero on the lattice, bounded, deterministic, continuous, periodic with period 256)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from durer.kernels.noise import PERM, fade, grad, noise3, noise_points, turbulence
+from durer.kernels.course.noise import PERM, fade, grad, noise3, noise_points, turbulence
 
 coord = st.floats(min_value=-300.0, max_value=300.0, allow_nan=False, allow_infinity=False)
 

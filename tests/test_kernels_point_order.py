@@ -1,4 +1,4 @@
-"""kernels/point_order.py: the counting sort of query points by grid cell, and the point queries that use it
+"""kernels/points/order.py: the counting sort of query points by grid cell, and the point queries that use it
 (accel/distance.cell_order) giving the same answers as in the caller's order."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from durer.accel.distance import SORT_MIN_POINTS, cell_order, restore_order
-from durer.kernels.point_order import MAX_BITS, grid_bits, sort_by_cell
+from durer.kernels.points.order import MAX_BITS, grid_bits, sort_by_cell
 from durer.query import RaycastingScene
 
 

@@ -1,11 +1,11 @@
-"""kernels/rays.py: reading the user's rays band by band, checking them as they are copied."""
+"""kernels/bvh/bands.py: reading the user's rays band by band, checking them as they are copied."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from durer.kernels.rays import BAND, band_scratch, check_bands, first_problem, load_band, n_bands
+from durer.kernels.bvh.bands import BAND, band_scratch, check_bands, first_problem, load_band, n_bands
 
 _EYE = np.ascontiguousarray(np.eye(4)[:3])
 

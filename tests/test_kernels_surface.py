@@ -1,4 +1,4 @@
-"""kernels/surface.hit_surfaces (the path tracer's hit points, normals and material slots in one pass) against
+"""kernels/path/surface.hit_surfaces (the path tracer's hit points, normals and material slots in one pass) against
 accel/hits' NumPy definitions, on triangles, a mesh placed twice (instances), a squashed sphere and a plane."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from durer import Group, Plane, Scene, Sphere, Transform, TriangleMesh
 from durer.accel.bvh import BVHAccelerator
 from durer.accel.compile import compile_scene
 from durer.accel.hits import geometric_normals, hit_materials
-from durer.kernels.surface import hit_surfaces
+from durer.kernels.path.surface import hit_surfaces
 from durer.scene import transforms as tf
 from durer.scene.cameras import OrthographicCamera
 

@@ -1,4 +1,4 @@
-"""kernels/winding.py through RaycastingScene.compute_winding_number: exact values on closed meshes, the fast
+"""kernels/points/winding.py through RaycastingScene.compute_winding_number: exact values on closed meshes, the fast
 (Barill) evaluation within its stated error bound, and the bunny's holes."""
 
 from __future__ import annotations

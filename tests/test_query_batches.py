@@ -1,4 +1,4 @@
-"""RaycastingScene reads the user's rays as given (accel/batches.py, kernels/queries.py): float32 or float64, any
+"""RaycastingScene reads the user's rays as given (accel/batches.py, kernels/bvh/queries.py): float32 or float64, any
 strides, scalar or per-ray t ranges, many bands per call, and every scene shape (one instance, moved or not; the
 world tree; a shared shape's two-level tree) give the answers of the same rays as contiguous float64 arrays."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from durer.kernels.rays import BAND
+from durer.kernels.bvh.bands import BAND
 from durer.query import RaycastingScene
 
 KEYS = ("t_hit", "geometry_ids", "primitive_ids", "primitive_uvs", "primitive_normals")

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from durer.kernels.path_microfacet import fresnel1, fresnel_conductor1
+from durer.kernels.path.microfacet import fresnel1, fresnel_conductor1
 from durer.rendering import bsdfs as R
 from durer.scene import bsdfs as S
 from durer.scene.materials import PhongMaterial

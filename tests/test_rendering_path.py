@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import durer
-from durer.kernels.path_warps import power_heuristic1
+from durer.kernels.path.warps import power_heuristic1
 from durer.rendering import path as P
 from durer.rendering.sampling import sobol_pair
 from durer.scene.bsdfs import Diffuse, Surface
@@ -82,7 +82,7 @@ def test_same_image_whatever_threads_and_batch(monkeypatch):
 
 
 def test_fused_bounce_gives_the_unfused_image(monkeypatch, tmp_path):
-    """The one-kernel bounce (kernels/path_wavefront.py) against the wavefront of accelerator queries and passes it
+    """The one-kernel bounce (kernels/path/wavefront.py) against the wavefront of accelerator queries and passes it
     replaces: the same image, depth and normals to the bit, over point, directional, constant and area emitters,
     glass, rough and smooth BSDFs, spheres and (course scene) planes and a background colour."""
     (tmp_path / "mixed.xml").write_text(MIXED)

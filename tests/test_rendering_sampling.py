@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from durer.kernels import path_warps as W
+from durer.kernels.path import warps as W
 from durer.rendering import sampling as S
 
 
@@ -49,7 +49,7 @@ def _uniform_2d(n, seed=0):
 
 
 def _warp(fn, u, *extra) -> np.ndarray:
-    """A scalar warp of kernels/path_warps.py applied to each row of u (N,2)."""
+    """A scalar warp of kernels/path/warps.py applied to each row of u (N,2)."""
     return np.array([fn(a, b, *extra) for a, b in u])
 
 

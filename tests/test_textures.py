@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from conftest import needs_course
 
-from durer.kernels.noise import turbulence
+from durer.kernels.course.noise import turbulence
 from durer.options import RenderOptions
 from durer.rendering.shading import MaterialTable
 from durer.rendering.texturing import WOOD_NOISE_Y_SCALE, WOOD_Y_TWIST, blend_weight, leaf_weights, texture_points

@@ -24,8 +24,8 @@ from .accel import batches
 from .accel.batches import RayBatch
 from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH, flat_image_width
 from .accel.distance import DEFAULT_BETA, DEFAULT_ORDER, SIGN_BETA, DistanceIndex
-from .kernels.bvh_trace import image_width
-from .kernels.layout import SPHERE
+from .kernels.bvh.trace import image_width
+from .kernels.common import SPHERE
 
 __all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
 
@@ -318,7 +318,7 @@ class RaycastingScene:
         outside, in between near holes (Jacobson et al. 2013); spheres count 1 inside. Evaluated through the BVH
         with Barill et al.'s far field (Taylor order 1 or 2) for BVH lanes more than `beta` radii away (beta > 1;
         inf sums every triangle exactly). With return_error_bound also a rigorous bound on each value's error
-        from the approximation (kernels/winding.py). On the bunny, beta=2, order 2 is off by at most 0.05."""
+        from the approximation (kernels/points/winding.py). On the bunny, beta=2, order 2 is off by at most 0.05."""
         p, lead, _ = self._points(query_points)
         with _threads(nthreads):
             w, err = self._distance_index().winding_numbers(p, float(beta), int(order))

@@ -1,7 +1,7 @@
 """Batch ray queries through a TwoLevelBVH, on the rays as the user gave them (RaycastingScene's engine room).
 
 The rays stay where they are (float32 or float64 views, any strides) and a t range given as a scalar stays a
-stride-0 view: kernels/queries.py reads them band by band into cache-sized scratch, checks them, traces them and
+stride-0 view: kernels/bvh/queries.py reads them band by band into cache-sized scratch, checks them, traces them and
 writes the outputs in the same pass. Per query this allocates the outputs the user gets and nothing of the
 rays' size besides (measured in benchmarks/README.md, issue 9).
 """
@@ -12,14 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernels.queries import (
+from ..kernels.bvh.bands import band_size, check_bands, first_problem, n_bands
+from ..kernels.bvh.queries import (
     closest_one_level,
     closest_two_level,
     crossings_two_level,
     occluded_one_level,
     occluded_two_level,
 )
-from ..kernels.rays import band_size, check_bands, first_problem, n_bands
 from ..kernels.threads import run_pieces
 from .bvh import INVALID_ID, TwoLevelBVH
 

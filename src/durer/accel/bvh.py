@@ -1,6 +1,6 @@
 """The bounding volume hierarchy every render and every ray query goes through.
 
-* `WideBVH` / `build_tree`: one 4-wide SAH tree over triangles and sphere boxes (layout in kernels/layout.py).
+* `WideBVH` / `build_tree`: one 4-wide SAH tree over triangles and sphere boxes (layout in kernels/bvh/layout.py).
 * `TwoLevelBVH`: shapes (meshes, spheres), each with its own tree, placed by instances (shape, 4x4 matrix); a mesh
   placed twice is stored once. It picks the fastest traversal the scene allows: one instance in its own tree, or
   several instances of distinct shapes in one world-space tree (both through the packet kernels), or the two-level
@@ -20,11 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernels.bvh_build import build_wide_bvh, item_boxes, leaf_items
-from ..kernels.bvh_trace import any_hit_bvh, closest_hit_bvh
-from ..kernels.instance_packets import any_hit_instances, closest_hit_instances
-from ..kernels.instances import rays_to_object
-from ..kernels.layout import MAX_LEAF, MISS, SPHERE, TILE, TRIANGLE, leaf_codes, leaf_slots, stack_size_for
+from ..kernels.bvh.build import build_wide_bvh, item_boxes, leaf_items
+from ..kernels.bvh.instance_packets import any_hit_instances, closest_hit_instances
+from ..kernels.bvh.instances import rays_to_object
+from ..kernels.bvh.layout import MAX_LEAF, TILE, leaf_codes, leaf_slots, stack_size_for
+from ..kernels.bvh.trace import any_hit_bvh, closest_hit_bvh
+from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.threads import run_blocks
 from .compile import CompiledScene, sphere_bounds
 from .hits import Hits, per_ray
@@ -34,7 +35,7 @@ INVALID_ID = -1
 
 @dataclass
 class WideBVH:
-    """One 4-wide tree and its leaf-ordered items (see kernels/layout.py for the layout)."""
+    """One 4-wide tree and its leaf-ordered items (see kernels/bvh/layout.py for the layout)."""
 
     bounds: np.ndarray     # (N, 6, 4) float32
     child: np.ndarray      # (N, 4) int32
@@ -73,7 +74,7 @@ def narrow_leaves(leaf_tri: np.ndarray) -> np.ndarray:
     """leaf_tri as float32 when it is large (NARROW_LEAVES_FROM slots) and every coordinate is a float32 value
     (meshes read from PLY, STL, glTF or given as float32 arrays), else unchanged: half the bytes a traversal
     reads per triangle, and the same results to the bit, since the kernels widen each coordinate to float64 as
-    they load it (kernels/layout.leaf_vertices)."""
+    they load it (kernels/bvh/layout.leaf_vertices)."""
     if len(leaf_tri) < NARROW_LEAVES_FROM:
         return leaf_tri
     narrow = leaf_tri.astype(np.float32)
@@ -124,7 +125,7 @@ class Shape:
 @dataclass
 class TwoLevelArrays:
     """The shapes' trees concatenated into shared arrays (the bottom level) and the tree over instances (the top
-    level), in the argument order of kernels/instances.py."""
+    level), in the argument order of kernels/bvh/instances.py."""
 
     top: tuple        # (bounds flat, child, leaf (instance ids), instance root nodes, world-to-object (K,3,4))
     blas: tuple       # (bounds flat, child, leaf_prim, leaf_tri flat, sphere centres, radii, sphere w2o)

@@ -7,7 +7,7 @@ the direction left unnormalised, which keeps t in world units too (the course's 
 
 A mesh placed more than once (the same TriangleMesh object, or the same file with identical arrays, as the
 course parser makes for each `TriangleMesh {}`) is stored once, in object space, with one (matrix, material)
-instance per placement; accel/bvh.BVHAccelerator traces it two-level (kernels/instances.py). Triangle
+instance per placement; accel/bvh.BVHAccelerator traces it two-level (kernels/bvh/instances.py). Triangle
 ids stay one flat numbering (CompiledScene.triangle / triangle_materials); brute force and the grid use `flat`.
 """
 
@@ -18,7 +18,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..kernels.layout import MISS, PLANE, SPHERE, TRIANGLE  # noqa: F401  (re-exported: the hit kinds)
+from ..kernels.common import MISS, PLANE, SPHERE, TRIANGLE  # noqa: F401  (re-exported: the hit kinds)
 from ..scene.graph import Group, Scene, Transform
 from ..scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 

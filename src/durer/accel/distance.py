@@ -12,7 +12,7 @@
 * large batches of points are queried in Morton order of a grid over them (`cell_order`), so neighbouring points
   walk the tree one after another, and the answers are put back in the caller's order.
 
-The kernels are kernels/closest.py and kernels/winding.py; query.py's RaycastingScene builds one lazily.
+The kernels are kernels/points/closest.py and kernels/points/winding.py; query.py's RaycastingScene builds one lazily.
 """
 
 from __future__ import annotations
@@ -21,17 +21,17 @@ import time
 
 import numpy as np
 
-from ..kernels.closest import closest_points_instances
-from ..kernels.layout import SPHERE, TRIANGLE
-from ..kernels.point_order import grid_bits, sort_by_cell
-from ..kernels.threads import run_blocks
-from ..kernels.winding import (
+from ..kernels.common import SPHERE, TRIANGLE
+from ..kernels.points.closest import closest_points_instances
+from ..kernels.points.order import grid_bits, sort_by_cell
+from ..kernels.points.winding import (
     FAR_FLOATS,
     crossing_votes_instances,
     far_field_table,
     lane_moments,
     winding_numbers_instances,
 )
+from ..kernels.threads import run_blocks
 from .bvh import Shape, TwoLevelBVH
 
 DEFAULT_BETA = 2.0  # Barill et al.'s accuracy parameter: a BVH lane is approximated from beta radii away
@@ -56,7 +56,7 @@ def similarity_scale(matrix: np.ndarray) -> float | None:
 def cell_order(points: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     """(the points in Morton order of a grid over them, the permutation: sorted[j] = points[order[j]]), or (the
     points, None) for small batches. Queries walk the tree for neighbouring points one after another, which
-    shares the cache (kernels/point_order.py); `restore_order` puts the answers back."""
+    shares the cache (kernels/points/order.py); `restore_order` puts the answers back."""
     n = len(points)
     if n < SORT_MIN_POINTS:
         return points, None
@@ -160,7 +160,7 @@ class DistanceIndex:
     @property
     def moments(self) -> np.ndarray:
         """The far-field table (lanes, FAR_FLOATS) of every lane of every bottom-level node: centre, radius, area
-        vector, area and second moment (kernels/winding.lane_moments packed by far_field_table), computed on
+        vector, area and second moment (kernels/points/winding.lane_moments packed by far_field_table), computed on
         first use."""
         if self._moments is None:
             bounds, child, leaf_prim, leaf_tri = self.tree.packed.blas[:4]
@@ -177,7 +177,7 @@ class DistanceIndex:
                         want_err: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Generalized winding number of each point (N, 3) over all instances and a bound on its error (0 when
         beta is inf: every triangle summed exactly; 0 when not want_err, which saves a division per far lane).
-        See kernels/winding.py."""
+        See kernels/points/winding.py."""
         if not beta > 1.0:
             raise ValueError(f"beta must be greater than 1, got {beta}")
         if order not in (1, 2):
@@ -195,7 +195,7 @@ class DistanceIndex:
 
     def crossing_votes(self, points: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """How many of R rays from each point (N, 3) cross the surfaces an odd number of times: ray r along
-        dirs[r] (R, 3) plus the unit direction away from the middle of the scene (kernels/winding.py)."""
+        dirs[r] (R, 3) plus the unit direction away from the middle of the scene (kernels/points/winding.py)."""
         points, perm = cell_order(points)
         p = self.tree.packed
         votes = np.zeros(len(points), np.int64)

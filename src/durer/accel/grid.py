@@ -1,7 +1,7 @@
 """The course's uniform grid (assignments 5-6): `-grid nx ny nz`, `-visualize_grid` and the grid's `-stats`.
 
 GridAccelerator is an accelerator like BruteForce (closest_hit / any_hit returning identical results); the
-kernels are in kernels/grid.py. The grid covers the course's scene bounding box, and primitives go into cells
+kernels are in kernels/course/grid.py. The grid covers the course's scene bounding box, and primitives go into cells
 as the course's solution inserts them, which is what -visualize_grid shows:
 
 * a triangle into every cell its (world-space) bounding box overlaps - the handout's "special case for
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
+from ..kernels.course.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
 from .compile import CompiledScene
 from .hits import Hits, per_ray
 from .stats import RayStats

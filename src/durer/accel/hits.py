@@ -8,13 +8,13 @@ from typing import Protocol
 
 import numpy as np
 
-from ..kernels.layout import MISS, PLANE, SPHERE, TRIANGLE
+from ..kernels.common import MISS, PLANE, SPHERE, TRIANGLE
 from .compile import CompiledScene
 
 
 @dataclass
 class Hits:
-    """The closest hit of each ray: t (inf on a miss), kind (MISS, TRIANGLE, SPHERE or PLANE of kernels/layout.py),
+    """The closest hit of each ray: t (inf on a miss), kind (MISS, TRIANGLE, SPHERE or PLANE of kernels/bvh/layout.py),
     prim (index within its kind, -1 on a miss) and barycentrics u, v (triangles only)."""
 
     t: np.ndarray

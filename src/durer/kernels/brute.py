@@ -9,8 +9,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from .common import MISS, PLANE, SPHERE, TRIANGLE
 from .intersect import intersect_plane, intersect_triangle, sphere_hit_in_object_space
-from .layout import MISS, PLANE, SPHERE, TRIANGLE
 
 
 @nb.njit(cache=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numba as nb
 
-from .layout import JIT
+from .common import JIT
 
 
 @nb.njit(**JIT, inline="always")

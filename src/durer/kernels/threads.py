@@ -7,7 +7,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numba as nb
 
-from .layout import BLOCK, PACKET
+from .bvh.layout import BLOCK, PACKET
 
 _POOLS: dict[int, ThreadPoolExecutor] = {}
 # a forked child inherits the pools but not their threads: it must make its own (multiprocessing "fork" workers)

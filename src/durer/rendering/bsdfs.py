@@ -1,4 +1,4 @@
-"""BSDFs for the path tracer: the table of every material slot (packed for kernels/path_bsdf.py, which evaluates and
+"""BSDFs for the path tracer: the table of every material slot (packed for kernels/path/bsdf.py, which evaluates and
 samples them), and evaluation, importance sampling and pdfs over arrays of rays through those kernels.
 
 Directions are in the local frame of the (possibly flipped) surface normal, z up, both pointing away from the
@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kernels.path_bsdf import (
+from ..kernels.path.bsdf import (
     AU,
     AV,
     BLACK,
@@ -55,7 +55,7 @@ from ..kernels.path_bsdf import (
     eval_kernel,
     sample_kernel,
 )
-from ..kernels.path_microfacet import rough_albedo_kernel
+from ..kernels.path.microfacet import rough_albedo_kernel
 from ..scene.bsdfs import Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughPlastic, Surface, TwoSided
 from ..scene.materials import PhongMaterial
 
@@ -105,7 +105,7 @@ class BSDFTable:
         return self.packed()[0][slot, SMOOTH] != 0
 
     def packed(self) -> tuple[np.ndarray, np.ndarray]:
-        """The table as kernels/path_bsdf.py reads it: one float64 row per slot (its column layout) and the rough
+        """The table as kernels/path/bsdf.py reads it: one float64 row per slot (its column layout) and the rough
         plastics' transmittance tables; made once."""
         if self._packed is None:
             n = len(self.kind)
@@ -178,13 +178,13 @@ def fresnel_diffuse_reflectance(eta: float) -> float:
 
 def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: int = 64) -> np.ndarray:
     """Single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at cos(theta) = mu
-    (kernels/path_microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals)."""
+    (kernels/path/microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals)."""
     out = np.empty(len(mu))
     rough_albedo_kernel(np.ascontiguousarray(mu, dtype=np.float64), float(alpha), float(eta), bool(transmit), n, out)
     return out
 
 
-# --- evaluation and sampling: the Numba kernels of kernels/path_bsdf.py ------------------------------------------
+# --- evaluation and sampling: the Numba kernels of kernels/path/bsdf.py ------------------------------------------
 def eval_pdf(t: BSDFTable, slot: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """f(wi, wo) * cos(theta_o) (N,3) and the pdf (N,) with which `sample` would pick wo (delta lobes excluded)."""
     n = len(slot)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..accel.compile import CompiledScene
-from ..kernels.path_emitters import (
+from ..kernels.path.emitters import (
     AREA,
     AREA_MESH,
     AREA_SPHERE,
@@ -129,7 +129,7 @@ class Emitters:
         self.data.append(data)
 
     def pack(self) -> tuple:
-        """The emitters as the arrays of kernels/path_emitters.py: (kinds, radiance, parameters, triangles,
+        """The emitters as the arrays of kernels/path/emitters.py: (kinds, radiance, parameters, triangles,
         triangle normals, per-emitter area cdfs, triangle -> emitter, sphere -> emitter); made once."""
         if self._packed is None:
             F = np.zeros((self.count, PARAMS))

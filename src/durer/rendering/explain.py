@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..accel.hits import Hits
-from ..kernels.layout import PLANE, SPHERE, TRIANGLE
+from ..kernels.common import PLANE, SPHERE, TRIANGLE
 from ..options import RenderOptions
 from ..scene.cameras import image_camera
 from ..scene.graph import Scene

@@ -16,7 +16,7 @@ from ..accel.grid import GridAccelerator
 from ..accel.hits import Accelerator
 from ..accel.stats import CountingAccelerator, RayStats
 from ..io.images import depth_visualization, encode_srgb, normal_visualization, save_image
-from ..kernels.layout import TILE
+from ..kernels.bvh.layout import TILE
 from ..options import RenderOptions
 from ..scene.bsdfs import BSDF, Surface
 from ..scene.cameras import image_camera
@@ -284,18 +284,18 @@ def _human(n: float) -> str:
     return f"{n:.1f} PB"
 
 
-COLD_CHECK = ("bvh_build", "bvh_trace")  # kernel modules every render compiles and caches
+COLD_CHECK = ("build", "trace")  # kernel modules every render compiles and caches
 
 
 def kernels_cold(folder: str | None = None) -> bool:
     """Is Numba's on-disk cache of the kernels still empty (the first render will compile for many seconds)?
-    Cheap: looks for the cache's index files (*.nbi) beside the kernels, in kernels/__pycache__."""
+    Cheap: looks for the cache's index files (*.nbi) beside the kernels, in kernels/bvh/__pycache__."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return False  # a cache elsewhere: cannot tell cheaply, stay quiet
     if folder is None:
-        from .. import kernels
+        from ..kernels import bvh
 
-        folder = os.path.join(os.path.dirname(kernels.__file__), "__pycache__")
+        folder = os.path.join(os.path.dirname(bvh.__file__), "__pycache__")
     try:
         names = os.listdir(folder)
     except OSError:

@@ -6,14 +6,14 @@ dimensions (pixel position, light position, BSDF direction) come from Owen-scram
 "Practical Hash-based Owen Scrambling", JCGT 9(4)): within one pixel the samples 0..n-1 of a pair form a randomly
 scrambled (0, 2)-sequence, stratified at every power of two, and each pair is shuffled and scrambled with its own
 hash so pairs are independent of each other. Single dimensions (light choice, lobe choice, Russian roulette) are
-plain hashes. (The warps that map them to directions and points are scalar kernels: kernels/path_warps.py.)
+plain hashes. (The warps that map them to directions and points are scalar kernels: kernels/path/warps.py.)
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.qmc import sobol_pair_kernel, uniform_kernel
+from ..kernels.path.qmc import sobol_pair_kernel, uniform_kernel
 
 _U64 = np.uint64
 
@@ -28,7 +28,7 @@ def mix64(x: np.ndarray) -> np.ndarray:
 
 
 def seed_key(seed: int) -> np.uint64:
-    """The seed's share of every stream key (key, and the path tracer's kernels/path_wavefront.start_paths)."""
+    """The seed's share of every stream key (key, and the path tracer's kernels/path/wavefront.start_paths)."""
     with np.errstate(over="ignore"):
         return _U64(mix64(_U64(int(seed) & 0xFFFFFFFFFFFFFFFF) + _U64(0x9E3779B97F4A7C15)))
 

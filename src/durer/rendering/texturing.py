@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.noise import turbulence
+from ..kernels.course.noise import turbulence
 from ..scene.materials import PBRMaterial, PhongMaterial
 from ..scene.textures import Checkerboard, Marble, Noise, Wood
 

@@ -22,19 +22,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .layout import (
-    BLOCK,
-    JIT,
-    NODE_FLOATS,
-    PACKET,
-    SPHERE,
-    TRIANGLE,
-    WIDTH,
-    lane_box,
-    leaf_range,
-    leaf_vertices,
-)
-from .small_sort import insert_ascending
+from ..bvh.layout import BLOCK, NODE_FLOATS, PACKET, WIDTH, lane_box, leaf_range, leaf_vertices
+from ..common import JIT, SPHERE, TRIANGLE
+from ..small_sort import insert_ascending
 
 POINTS_PER_BLOCK = PACKET * BLOCK  # points per work item of run_blocks
 

@@ -8,7 +8,7 @@ import math
 
 import numba as nb
 
-from .layout import JIT
+from ..common import JIT
 
 INV_PI = 1.0 / math.pi
 

@@ -1,8 +1,8 @@
 """One ray through one BVH (Numba): the closest hit, any hit, or every hit, plus the unbounded planes beside it.
 
 Children are visited nearest entry first; the slab test picks each axis's near plane by the direction's sign.
-These are the building blocks of the one-level kernels (kernels/bvh_trace.py) and the two-level ones
-(kernels/instances.py).
+These are the building blocks of the one-level kernels (kernels/bvh/trace.py) and the two-level ones
+(kernels/bvh/instances.py).
 """
 
 from __future__ import annotations
@@ -10,22 +10,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .intersect import intersect_plane, ray_shear, sphere_hit_in_object_space, watertight_triangle
-from .layout import (
-    FAR_WIDEN,
-    HI_X,
-    HI_Y,
-    HI_Z,
-    JIT,
-    LEAF_COUNT_BITS,
-    LO_X,
-    LO_Y,
-    LO_Z,
-    NODE_FLOATS,
-    SPHERE,
-    TRIANGLE,
-    leaf_range,
-)
+from ..common import JIT, SPHERE, TRIANGLE
+from ..intersect import intersect_plane, ray_shear, sphere_hit_in_object_space, watertight_triangle
+from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, LEAF_COUNT_BITS, LO_X, LO_Y, LO_Z, NODE_FLOATS, leaf_range
 from .simd import entry4, prefetch
 
 # unsigned index constants of the node test: near row + far row of each axis, node size
@@ -63,7 +50,7 @@ def node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_
     within [t_lo, t_hi] (its far distance widened by FAR_WIDEN). bounds is the flat float32 node array (24 floats
     a node: rows lo x, y, z, hi x, y, z of 4 lanes each); the near plane of each slab is picked by the direction's
     sign (row offsets nrx, nry, nrz from ray_setup), so no min/max of the two planes is needed. Empty lanes hold
-    a box at +infinity and so always miss. The 4 lanes are tested at once in 4-wide vector code (kernels/simd.py);
+    a box at +infinity and so always miss. The 4 lanes are tested at once in 4-wide vector code (kernels/bvh/simd.py);
     the offsets are unsigned, which spares Numba's negative-index wraparound."""
     base = np.uint64(node) * _UNODE
     rx, ry, rz = np.uint64(nrx), np.uint64(nry), np.uint64(nrz)

@@ -1,7 +1,7 @@
 """The query API's passes (Numba): load, check, trace and write out one band of the user's rays at a time.
 
 Each work item (threads.run_pieces hands out bands k0..k1) copies a band of rays into float64 scratch while
-checking it (rays.load_band), traces the scratch with the ordinary kernels (bvh_trace's one-level packet kernels,
+checking it (bands.load_band), traces the scratch with the ordinary kernels (trace.py's one-level packet kernels,
 or instance_packets' two-level ones when a shape is placed twice) and writes every output the user gets straight from
 the scratch while it is in cache: t, instance and primitive ids, barycentrics and world-space normals. A band
 with a bad ray is not traced (the caller raises). The arithmetic is the kernels' own, so the answers are those of
@@ -13,11 +13,12 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_trace import any_hit_bvh, closest_hit_bvh
+from ..common import JIT, MISS, SPHERE, TRIANGLE
+from .bands import band_scratch, load_band, ray_at
 from .instance_packets import any_hit_instances, closest_hit_instances
 from .instances import all_hits_instances, hit_normal
-from .layout import BLOCK, JIT, MISS, PACKET, SPHERE, TRIANGLE
-from .rays import band_scratch, load_band, ray_at
+from .layout import BLOCK, PACKET
+from .trace import any_hit_bvh, closest_hit_bvh
 
 
 @nb.njit(**JIT, inline="always")
@@ -59,10 +60,10 @@ def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
                       stack_size, width, band, tri_inst, tri_local, sph_inst, sph_prim,
                       inst_shape, tri_off, tri_normals, inst_w2o, inst_sign, blas_sph_center,
                       t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
-    """cast_rays through one tree (bvh_trace.closest_hit_bvh): a lone instance's own tree (its rays moved into
+    """cast_rays through one tree (trace.closest_hit_bvh): a lone instance's own tree (its rays moved into
     its object space when `moved`), or the world tree of several instances, whose triangle and sphere ids
     tri_inst / tri_local / sph_inst / sph_prim map back to (instance, primitive); with none (empty maps) every
-    hit is instance 0's. Bands k0..k1 of `band` rays; first[k]: band k's problems (rays.load_band)."""
+    hit is instance 0's. Bands k0..k1 of `band` rays; first[k]: band k's problems (bands.load_band)."""
     mapped = tri_inst.shape[0] + sph_inst.shape[0] > 0
     o, d, lo, hi = band_scratch(band)
     t, kind, u, v = np.empty(band), np.empty(band, np.int8), np.empty(band), np.empty(band)
@@ -113,7 +114,7 @@ def closest_two_level(origins, directions, t_min, t_max, top_bounds, top_child, 
 def occluded_one_level(origins, directions, t_min, t_max, w2o, moved,
                        bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset,
                        stack_size, width, band, out, first, k0, k1):
-    """test_occlusions through one tree (bvh_trace.any_hit_bvh), as closest_one_level."""
+    """test_occlusions through one tree (trace.any_hit_bvh), as closest_one_level."""
     o, d, lo, hi = band_scratch(band)
     for k in range(k0, k1):
         r0, m, clean = load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, hi, first)

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .layout import JIT
-from .threads import run_pieces
+from ..common import JIT
+from ..threads import run_pieces
 
 MAX_BITS = 5        # cells per axis at most 2^5: 32,768 counts a thread (finer grids measured no faster)
 POINTS_PER_CELL = 4  # the grid is made about N / 4 cells, so a cell holds a few points

@@ -1,4 +1,4 @@
-"""The memory layout every BVH kernel shares: hit kinds, node rows, leaf codes, packet shape, Numba options.
+"""The memory layout every BVH kernel shares: node rows, leaf codes, packet shape.
 
 A 4-wide BVH whose nodes hold their children's boxes, float32, structure of arrays, so one node visit tests four
 boxes from one 96-byte block (measured fastest of the variants tried, see benchmarks/README.md):
@@ -29,10 +29,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-JIT = dict(cache=True, error_model="numpy", nogil=True)
-
-# what a ray hit: the `kind` of every hit record (accel/hits.py), the same in every kernel
-MISS, TRIANGLE, SPHERE, PLANE = 0, 1, 2, 3
+from ..common import JIT
 
 # node layout: floats per node, and the flat offset of each row of bounds within a node (4 lanes a row)
 WIDTH = 4

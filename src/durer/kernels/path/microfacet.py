@@ -1,4 +1,4 @@
-"""Scalar Fresnel and GGX terms of the path tracer's BSDF kernels (kernels/path_bsdf.py): dielectric and conductor
+"""Scalar Fresnel and GGX terms of the path tracer's BSDF kernels (kernels/path/bsdf.py): dielectric and conductor
 Fresnel reflectance, the GGX distribution, Smith's masking and Heitz's visible-normal sampling."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import math
 
 import numba as nb
 
-from .layout import JIT
+from ..common import JIT
 
 
 @nb.njit(**JIT)

@@ -10,8 +10,8 @@ import math
 
 import numba as nb
 
-from .layout import JIT
-from .path_warps import frame3, to_world3, uniform_cone3, uniform_cone_pdf, uniform_sphere3
+from ..common import JIT
+from .warps import frame3, to_world3, uniform_cone3, uniform_cone_pdf, uniform_sphere3
 
 AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP = range(6)
 # parameter columns: spheres centre x y z, radius, flip; points position x y z, attenuation a b c; directional
@@ -131,7 +131,7 @@ def emitter_pdf(K, F, e, px, py, pz, yx, yy, yz, nx, ny, nz):
 def pick_sample(lights, env, row, u_pick, u0, u1, px, py, pz):
     """Next-event estimation from p: an emitter picked uniformly by u_pick, then sampled by (u0, u1); the weight
     and pdf include the pick (weight times the count, finite pdfs divided by it). lights and env as in
-    kernels/path_bounce.shade_bounce."""
+    kernels/path/bounce.shade_bounce."""
     K, R, F, tri_v, tri_n, tri_cdf, _, _ = lights
     env_d, env_pdf, env_w = env
     count = K.shape[0]

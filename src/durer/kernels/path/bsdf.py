@@ -13,9 +13,9 @@ import math
 
 import numba as nb
 
-from .layout import JIT
-from .path_microfacet import fresnel1, fresnel_conductor1, ggx_d1, ggx_g11, ggx_sample_visible1
-from .path_warps import INV_PI, cosine_hemisphere3, frame3, to_world3
+from ..common import JIT
+from .microfacet import fresnel1, fresnel_conductor1, ggx_d1, ggx_g11, ggx_sample_visible1
+from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
 
 DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK = range(8)
 # columns of the packed table: kind, flags, four colours (3 each), scalars, emission

@@ -22,8 +22,8 @@ import math
 import numba as nb
 import numpy as np
 
-from .intersect import intersect_plane, intersect_triangle, sphere_hit_in_object_space
-from .layout import PLANE, SPHERE, TRIANGLE
+from ..common import PLANE, SPHERE, TRIANGLE
+from ..intersect import intersect_plane, intersect_triangle, sphere_hit_in_object_space
 
 # The walk stops when the best hit lies this far (relative to the grid's size along the ray) before the end of
 # the current cell, so a hit computed a rounding error outside its cell cannot end the walk too early.

@@ -1,7 +1,7 @@
 """The one-level kernels (Numba): batches of rays against one tree and the planes beside it.
 
-Rays go in chunks of PACKET: a coherent chunk is traced as a packet (kernels/bvh_packet.py), any other one ray at a
-time (kernels/bvh_single.py). The kernels are serial and nogil; threads.run_blocks spreads their blocks over
+Rays go in chunks of PACKET: a coherent chunk is traced as a packet (kernels/bvh/packet.py), any other one ray at a
+time (kernels/bvh/single.py). The kernels are serial and nogil; threads.run_blocks spreads their blocks over
 threads (cheaper to compile and to load from the cache than a parallel=True kernel).
 """
 
@@ -10,7 +10,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_packet import (
+from ..common import JIT, MISS, PLANE, SPHERE, TRIANGLE
+from .layout import BLOCK, PACKET, TILE, packet_spread_limit
+from .packet import (
     _BEST,
     _DET,
     _DX,
@@ -28,8 +30,7 @@ from .bvh_packet import (
     packet_setup,
     packet_traverse,
 )
-from .bvh_single import blas_any, blas_closest, load_ray, planes_closest
-from .layout import BLOCK, JIT, MISS, PACKET, PLANE, SPHERE, TILE, TRIANGLE, packet_spread_limit
+from .single import blas_any, blas_closest, load_ray, planes_closest
 
 
 @nb.njit(**JIT, inline="always")

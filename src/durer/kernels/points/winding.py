@@ -28,9 +28,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_single import blas_all
+from ..bvh.layout import HI_X, HI_Y, HI_Z, LO_X, LO_Y, LO_Z, NODE_FLOATS, WIDTH, leaf_range, leaf_vertices
+from ..bvh.single import blas_all
+from ..common import JIT
 from .closest import POINTS_PER_BLOCK
-from .layout import HI_X, HI_Y, HI_Z, JIT, LO_X, LO_Y, LO_Z, NODE_FLOATS, WIDTH, leaf_range, leaf_vertices
 
 FOUR_PI = 4.0 * np.pi
 
@@ -86,7 +87,7 @@ def lane_moments(bounds, child, leaf_prim, leaf_tri, mom_n, mom_c, mom_m, mom_r,
     moment sum_i (c_i - c) (x) A_i (row-major, row = offset); mom_r (L,) a radius around c holding every
     triangle point: a leaf's farthest vertex, else the smaller of the farthest box corner and the sub-lanes'
     spheres (|c_sub - c| + rho_sub); mom_a (L,) unsigned area. Children are numbered after
-    their parents (kernels/bvh_build.collapse_bvh4), so one pass from the last node up fills every lane."""
+    their parents (kernels/bvh/build.collapse_bvh4), so one pass from the last node up fills every lane."""
     acc = np.zeros(16)
     for node in range(child.shape[0] - 1, -1, -1):
         base = node * NODE_FLOATS

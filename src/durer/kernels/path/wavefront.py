@@ -1,6 +1,6 @@
 """One whole bounce of the path tracer's wavefront in one Numba loop, for scenes on a one-level BVH: per live path
-the closest hit (kernels/bvh_single.py's one-ray walk, as the accelerator's closest_hit_bvh traces incoherent
-rays), the hit surface (kernels/surface.py), the shading (kernels/path_bounce.py's shade_path) and the shadow ray's
+the closest hit (kernels/bvh/single.py's one-ray walk, as the accelerator's closest_hit_bvh traces incoherent
+rays), the hit surface (kernels/path/surface.py), the shading (kernels/path/bounce.py's shade_path) and the shadow ray's
 any-hit, then the next ray written over the path's own state. No intermediate arrays, gathers or Python between
 the pieces: rendering/path.py calls it once per bounce with the list of live paths.
 
@@ -12,9 +12,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_single import blas_any, blas_closest, planes_closest
-from .layout import JIT, MISS, PLANE
-from .path_bounce import shade_path
+from ..bvh.single import blas_any, blas_closest, planes_closest
+from ..common import JIT, MISS, PLANE
+from .bounce import shade_path
 from .qmc import mix64
 from .surface import surface_at
 

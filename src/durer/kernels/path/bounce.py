@@ -2,9 +2,9 @@
 found (weighted by multiple importance sampling against light sampling), next-event estimation (a shadow ray per
 path, traced afterwards by the accelerator), BSDF sampling, Russian roulette and the next ray. rendering/path.py
 drives it between the accelerator's closest-hit and any-hit queries and documents the estimator. shade_path, the
-work on one path, is also the shading of the fused bounce (kernels/path_wavefront.py).
+work on one path, is also the shading of the fused bounce (kernels/path/wavefront.py).
 
-Random numbers come from the counter-based stream (kernels/qmc.py) keyed by (seed, pixel, sample, dimension), so
+Random numbers come from the counter-based stream (kernels/path/qmc.py) keyed by (seed, pixel, sample, dimension), so
 every path's numbers depend only on the path: the result is the same whatever the thread count or work split."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ import math
 
 import numba as nb
 
-from .layout import JIT, MISS, SPHERE, TRIANGLE
-from .path_bsdf import EMISSION, FLIP, SMOOTH, bsdf_eval, bsdf_sample
-from .path_emitters import emitter_pdf, pick_sample
-from .path_warps import frame3, power_heuristic1, to_local3, to_world3
+from ..common import JIT, MISS, SPHERE, TRIANGLE
+from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_eval, bsdf_sample
+from .emitters import emitter_pdf, pick_sample
 from .qmc import sobol2, uniform1
+from .warps import frame3, power_heuristic1, to_local3, to_world3
 
 DIMS = 8  # 1-D random dimensions per bounce: 0 light pick, 1 lobe pick, 2 Russian roulette, 3 texture pick
 
@@ -38,7 +38,7 @@ def dim2(depth, k):
 def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample, keys, pkeys, thr, eta, prev, bsdf,
                lights, env, scalars, L):
     """Shade one path after its closest hit: the body of shade_bounce, shared with the fused bounce of
-    kernels/path_wavefront.py (inlined into both).
+    kernels/path/wavefront.py (inlined into both).
 
     ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, geometric normal and material slots (se as hit,
     s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped; j the

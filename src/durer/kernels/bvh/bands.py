@@ -6,7 +6,7 @@ direction. The traversal kernels want C-contiguous float64 (N, 3) rays and (N,) 
 batch up front cost ~100 MB of fresh arrays per million rays, whose first touch is expensive (benchmarks/
 README.md, issue 9). Instead each work item copies one band of rays (TILE rows of an image, or BAND rays) into
 small float64 scratch that stays in cache, checking the rays as it copies them, and the query passes
-(kernels/queries.py) trace the scratch and write the user's outputs from it. float32 converts to float64
+(kernels/bvh/queries.py) trace the scratch and write the user's outputs from it. float32 converts to float64
 exactly, so float32 rays give the results of the same values given in float64, to the bit.
 """
 
@@ -15,8 +15,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..common import JIT
 from .instances import to_object
-from .layout import JIT, TILE
+from .layout import TILE
 
 BAND = 4096  # rays per work item when the rays are not an image (32 blocks of the one-level kernels)
 

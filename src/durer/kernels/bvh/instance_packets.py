@@ -1,10 +1,10 @@
 """The two-level entry kernels (Numba): rays through meshes placed more than once, in packets where coherent.
 
-Rays go in chunks of PACKET (consecutive rays, or 4 x 4 tiles of an image `width` wide, as bvh_trace's one-level
+Rays go in chunks of PACKET (consecutive rays, or 4 x 4 tiles of an image `width` wide, as trace.py's one-level
 kernels take them). A coherent chunk walks the top-level tree over instances as a packet (packet_traverse's node test);
 at an instance leaf its rays are moved into the instance's object space with instances.to_object's arithmetic, so t
 stays what the one-ray two-level path computes, and the bottom-level tree is traversed with
-bvh_packet.packet_traverse when the moved rays still share direction signs and shear axes (a rotation can change the
+packet.packet_traverse when the moved rays still share direction signs and shear axes (a rotation can change the
 largest component), else one ray at a time through that instance. Incoherent chunks take the one-ray two-level walk
 (nearest instance box first). Every ray does the one-ray path's arithmetic, so t, u, v agree to the bit; only the
 visit order differs, which can change the primitive or instance named on an exact tie in t.
@@ -15,7 +15,26 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_packet import (
+from ..common import JIT, SPHERE, TRIANGLE
+from ..intersect import shear_axes
+from ..small_sort import insert_ascending
+from .instances import to_object
+from .layout import (
+    BLOCK,
+    FAR_WIDEN,
+    HI_X,
+    HI_Y,
+    HI_Z,
+    LO_X,
+    LO_Y,
+    LO_Z,
+    NODE_FLOATS,
+    PACKET,
+    WIDTH,
+    leaf_range,
+    packet_spread_limit,
+)
+from .packet import (
     _BEST,
     _DET,
     _DX,
@@ -40,35 +59,14 @@ from .bvh_packet import (
     packet_setup,
     packet_traverse,
 )
-from .bvh_single import blas_any, blas_closest, descend, load_ray, next_leaf, pop_closer, ray_setup
-from .instances import to_object
-from .intersect import shear_axes
-from .layout import (
-    BLOCK,
-    FAR_WIDEN,
-    HI_X,
-    HI_Y,
-    HI_Z,
-    JIT,
-    LO_X,
-    LO_Y,
-    LO_Z,
-    NODE_FLOATS,
-    PACKET,
-    SPHERE,
-    TRIANGLE,
-    WIDTH,
-    leaf_range,
-    packet_spread_limit,
-)
-from .small_sort import insert_ascending
+from .single import blas_any, blas_closest, descend, load_ray, next_leaf, pop_closer, ray_setup
 
 
 @nb.njit(**JIT, inline="always")
 def _scratch(stack_size):
     """Per-call scratch: both levels' stacks (nodes, entry distances), the one-ray lane distances, the world
     and object-space packet rows, both levels' child orders (key, order), ray indices, and the packet's best
-    hit so far (instance, primitive code as in bvh_packet's _PRIM row, u, v)."""
+    hit so far (instance, primitive code as in packet.py's _PRIM row, u, v)."""
     return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(stack_size, np.int32),
             np.empty(stack_size), np.empty(4), np.empty(_NROW * PACKET), np.empty(_NROW * PACKET),
             np.empty(4), np.empty(4, np.int64), np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64),
@@ -79,7 +77,7 @@ def _scratch(stack_size):
 def _object_packet(rr, ro, w2o):
     """The packet rr moved into object space (rows of ro, t range and best so far copied): returns (coherent,
     nrx, nry, nrz, kx, ky, kz), coherent when the moved rays share direction signs and shear axes; only then
-    are their extremes and per-ray constants computed, as bvh_packet.packet_setup computes them."""
+    are their extremes and per-ray constants computed, as packet.packet_setup computes them."""
     for k in range(PACKET):
         (ro[_OX + k], ro[_OY + k], ro[_OZ + k], ro[_DX + k], ro[_DY + k],
          ro[_DZ + k]) = to_object(w2o, rr[_OX + k], rr[_OY + k], rr[_OZ + k], rr[_DX + k], rr[_DY + k], rr[_DZ + k])
@@ -274,7 +272,7 @@ def closest_hit_instances(origins, directions, t_min, t_max,
                           bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width,
                           t_out, inst_out, kind_out, prim_out, u_out, v_out, blk0, blk1):
     """Closest hit of each ray (in blocks blk0..blk1 of BLOCK chunks, see threads.run_blocks) over all
-    instances: t (inf on a miss), instance (-1), kind, prim, u, v. width as in bvh_trace.closest_hit_bvh."""
+    instances: t (inf on a miss), instance (-1), kind, prim, u, v. width as in trace.closest_hit_bvh."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
     (top_node, top_t, stack_node, stack_t, dist, rr, ro, top_key, top_order, key, order, idx,

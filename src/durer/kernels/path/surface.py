@@ -9,7 +9,7 @@ import math
 
 import numba as nb
 
-from .layout import JIT, PLANE, SPHERE, TRIANGLE
+from ..common import JIT, PLANE, SPHERE, TRIANGLE
 
 
 @nb.njit(**JIT, inline="always")

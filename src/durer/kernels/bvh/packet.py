@@ -18,13 +18,14 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .intersect import shear_axes, sphere_hit_in_object_space
+from ..common import JIT
+from ..intersect import shear_axes, sphere_hit_in_object_space
+from ..small_sort import insert_ascending
 from .layout import (
     FAR_WIDEN,
     HI_X,
     HI_Y,
     HI_Z,
-    JIT,
     LO_X,
     LO_Y,
     LO_Z,
@@ -35,7 +36,6 @@ from .layout import (
     WIDTH,
     leaf_range,
 )
-from .small_sort import insert_ascending
 
 # The packet's scratch `rr`: a flat float64 array of _NROW rows of PACKET, row r at offset r * PACKET, so ray k of
 # row _X is rr[_X + k] (the names below are offsets) and a row picked at run time (axis a after _DX) is
@@ -201,7 +201,7 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
         if p >= 0:
             base = j * 9
             fp = np.float64(p)
-            # widened to float64 as they load (the leaves may be float32: kernels/layout.py)
+            # widened to float64 as they load (the leaves may be float32: kernels/bvh/layout.py)
             ax0, ay0, az0 = (np.float64(leaf_tri[base + kx]), np.float64(leaf_tri[base + ky]),
                              np.float64(leaf_tri[base + kz]))
             bx0, by0, bz0 = (np.float64(leaf_tri[base + 3 + kx]), np.float64(leaf_tri[base + 3 + ky]),

@@ -1,7 +1,7 @@
 """The one-ray node test as explicit 4-wide LLVM vector code (a Numba intrinsic).
 
 Numba leaves LLVM's SLP vectoriser off (NUMBA_SLP_VECTORIZE=0), and its loop vectoriser does not take a 4-lane
-loop with the per-ray row offsets of the slab test, so the node test of kernels/bvh_single.py compiled to scalar
+loop with the per-ray row offsets of the slab test, so the node test of kernels/bvh/single.py compiled to scalar
 code: 24 loads, conversions, subtractions, multiplications and 24 min/max a visit. This intrinsic emits the same
 operations on <4 x float> loads widened to <4 x double> (one AVX2 instruction per row and operation). Every lane
 does exactly the scalar arithmetic (IEEE subtraction, multiplication, compare-and-select, in the same order), so
@@ -40,7 +40,7 @@ def entry4(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, o, in
 
     o = (ox, oy, oz) and inv = (1/dx, 1/dy, 1/dz) are tuples of float64; per axis, a = (near - o) * inv and
     b = (far - o) * inv narrow tn (from t_lo, kept when a > tn is false, as for NaN) and tf (from t_hi); a lane is
-    entered when tn <= tf + |tf| * widen. The scalar form of the same test is bvh_single._entry / _slab."""
+    entered when tn <= tf + |tf| * widen. The scalar form of the same test is single._entry / _slab."""
     f64 = types.float64
     sig = types.UniTuple(f64, 4)(bounds, near_x, far_x, near_y, far_y, near_z, far_z, o, inv, t_lo, t_hi, widen)
 

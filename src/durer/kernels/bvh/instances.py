@@ -3,8 +3,8 @@
 An instance is (root node of a bottom-level tree in the shared arrays, 3x4 world-to-object matrix). At an instance
 leaf the ray is moved into object space with its direction left unnormalised, so the bottom-level tree's t is the
 world t and one mesh can appear many times while being stored once. The top-level tree uses the layout of
-kernels/layout.py; its leaf slots name instances. Here: moving rays, normals, and every hit of a ray; the closest-
-hit and any-hit kernels, which also take packets, are in kernels/instance_packets.py. The kernels are serial and
+kernels/bvh/layout.py; its leaf slots name instances. Here: moving rays, normals, and every hit of a ray; the closest-
+hit and any-hit kernels, which also take packets, are in kernels/bvh/instance_packets.py. The kernels are serial and
 nogil, spread over threads by threads.run_blocks rather than parallel=True regions: a process forked after an OpenMP
 region has run cannot use one again, and RaycastingScene must work in forked workers.
 """
@@ -14,8 +14,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .bvh_single import blas_all, load_ray, next_leaf, ray_setup
-from .layout import BLOCK, JIT, PACKET, SPHERE, TRIANGLE, leaf_range
+from ..common import JIT, SPHERE, TRIANGLE
+from .layout import BLOCK, PACKET, leaf_range
+from .single import blas_all, load_ray, next_leaf, ray_setup
 
 RAYS_PER_BLOCK = PACKET * BLOCK  # rays per work item of threads.run_blocks (serial nogil kernels, fork-safe)
 

@@ -1,4 +1,4 @@
-"""BVH construction (Numba): a binned-SAH binary tree, collapsed into the 4-wide layout of kernels/layout.py.
+"""BVH construction (Numba): a binned-SAH binary tree, collapsed into the 4-wide layout of kernels/bvh/layout.py.
 
 Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently.
 """
@@ -8,8 +8,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .layout import JIT, LEAF_COUNT_BITS, MAX_LEAF
-from .threads import thread_pool
+from ..common import JIT
+from ..threads import thread_pool
+from .layout import LEAF_COUNT_BITS, MAX_LEAF
 
 N_BINS = 16           # SAH bins per axis
 TRAVERSAL_COST = 2.0  # SAH: cost of a node visit (4 box tests) relative to one primitive test
