@@ -6,7 +6,7 @@ A counting copy of blas_closest (same walk, same tests) records for each ray of 
 the nodes it visits and the leaf slots it tests; the script prints the counts per ray (node visits, child boxes
 entered per visit, stack pops and the ones dropped as farther than the hit, triangle tests), then the CPU time
 per ray (median of --repeat) of:
-  * the kernel itself (blas_closest over the batch, as bvh_trace calls it);
+  * the kernel itself (blas_closest over the batch, as trace.closest_hit_bvh calls it);
   * replaying only the recorded node tests (node_dists4 of each visited node, in the same order, so the same
     memory is touched), only the recorded triangle tests, and only the memory reads of both (the first word
     of each node and triangle);

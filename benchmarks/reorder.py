@@ -12,7 +12,7 @@ sort (two O(N) passes), the rays gathered in that order, traced, and the answers
 
 Each batch is traced four ways: through the accelerator (BVHAccelerator.closest_hit / any_hit, which takes any
 16 consecutive rays that look coherent as a packet) as given and sorted, and one ray at a time (the one-ray path of
-those kernels, bvh_single.blas_closest / blas_any, in a loop) as given and sorted (with and without the sort's
+those kernels, single.blas_closest / blas_any, in a loop) as given and sorted (with and without the sort's
 cost). Figures: CPU seconds (time.process_time) of one thread, median over --repeat rounds, the runs alternating;
 a sorted figure includes the key, the sort, the gather and the scatter unless it says "trace only".
 """
