@@ -3,6 +3,7 @@ batch sizes, course scenes, and a Mitsuba XML scene against Mitsuba 3's own rend
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from hypothesis import strategies as st
 
 import durer
 from durer.kernels.path.warps import power_heuristic1
+from durer.rendering import integrators as I
 from durer.rendering import path as P
 from durer.rendering.sampling import sobol_pair
 from durer.scene.bsdfs import Diffuse, Surface
@@ -64,7 +66,7 @@ def test_sobol_pairs_are_stratified():
 def test_same_image_whatever_threads_and_batch(monkeypatch):
     """The same image to the bit whether one thread traces everything (Numba threads 1: one wavefront at a time),
     one wavefront splits its bounces over every thread (2^16-path wavefronts: this image is one), or up to
-    min(WORKERS, threads) wavefronts of 37 paths run at once with the threads shared out; another seed gives another
+    min(workers, threads) units in batches of 37 paths run at once with the threads shared out; another seed gives another
     image."""
     numba = pytest.importorskip("numba")
     scene = durer.load(EXAMPLES / "caustic.xml")
@@ -73,8 +75,7 @@ def test_same_image_whatever_threads_and_batch(monkeypatch):
     one = durer.render(scene, 16, 16, **kw).color
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     many = durer.render(scene, 16, 16, **kw).color
-    monkeypatch.setattr(P, "BATCH", 37)
-    monkeypatch.setattr(P, "WORKERS", 3)
+    monkeypatch.setattr(I, "PATH", dataclasses.replace(I.PATH, batch=37, workers=3))
     small = durer.render(scene, 16, 16, **kw).color
     np.testing.assert_array_equal(one, many)
     np.testing.assert_array_equal(one, small)
