@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import durer
+from durer.accel.bvh import BVHAccelerator
 from durer.kernels.path.warps import power_heuristic1
 from durer.rendering import integrators as I
 from durer.rendering import path as P
@@ -97,7 +98,7 @@ def test_fused_bounce_gives_the_unfused_image(monkeypatch, tmp_path):
     for scene in scenes:
         kw = dict(integrator="path", samples=2, max_depth=-1, seed=3)
         with monkeypatch.context() as m:
-            m.setattr(P, "BVHAccelerator", type("NotTheBVH", (), {}))  # PathTracer then takes the unfused wavefront
+            m.setattr(BVHAccelerator, "kernel_tree", lambda self: None)  # no tree to walk: the unfused wavefront
             before = len(calls)
             unfused = durer.render(scene, 16, 12, **kw)
             assert len(calls) == before
@@ -216,3 +217,16 @@ def test_environment_map_against_mitsuba(tmp_path):
     ours = durer.render(durer.load(tmp_path / "env.xml"), samples=128).color
     np.testing.assert_allclose(ours[:3, 1:], ref[:3, 1:], rtol=2e-3)  # the sky rows (column 0 straddles the seam)
     np.testing.assert_allclose(ours.mean(axis=(0, 1)), ref.mean(axis=(0, 1)), rtol=0.005)
+
+
+def test_path_tracer_reaches_any_accelerator_through_the_protocol():
+    """The path tracer asks the accelerator for a tree to walk (kernel_tree) and otherwise queries it: brute force
+    and the counting wrapper (-stats) give the BVH's image to the bit, and the counters see every path's rays."""
+    scene = durer.load(EXAMPLES / "cornell_box.xml")
+    kw = dict(samples=2, max_depth=3)
+    bvh = durer.render(scene, 12, 10, **kw)
+    brute = durer.render(scene, 12, 10, accel="brute", **kw)
+    counted = durer.render(scene, 12, 10, stats=True, **kw)
+    np.testing.assert_array_equal(bvh.color, brute.color)
+    np.testing.assert_array_equal(bvh.color, counted.color)
+    assert counted.stats.nonshadow_rays >= 12 * 10 * 2 and counted.stats.shadow_rays > 0

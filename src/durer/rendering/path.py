@@ -3,14 +3,15 @@ importance sampling (power heuristic), and Russian roulette, as Mitsuba 3's `pat
 
 `max_depth` has Mitsuba's meaning: 1 shows emitters seen directly, 2 adds direct light, -1 is unbounded (paths end
 by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths are traced as a wavefront, one
-bounce of all live paths of a batch at a time, with no Python loop over rays. On the default one-level BVH a bounce
-is one Numba kernel (kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path);
-otherwise (other accelerators, instances, solid textures, environment maps) it is one closest_hit and one any_hit
-query on the scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces
-(kernels/path/surface.py) and one for the shading (kernels/path/bounce.py: emission, light sample, BSDF sample, Russian
-roulette, next ray). Both give the same numbers to the bit. Random numbers come from the counter-based stream of
-sampling.py / kernels/path/qmc.py keyed by (seed, pixel, sample, dimension), so an image is the same whatever the thread
-count and batch size.
+bounce of all live paths of a batch at a time, with no Python loop over rays. When the accelerator offers a
+one-level tree to walk (Accelerator.kernel_tree: the default BVH without instances) a bounce is one Numba kernel
+(kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path); otherwise (other
+accelerators, instances, solid textures, environment maps) it is one closest_hit and one any_hit query on the
+scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces (kernels/path/surface.py)
+and one for the shading (kernels/path/bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray).
+Both give the same numbers to the bit. Random numbers come from the counter-based stream of sampling.py /
+kernels/path/qmc.py keyed by (seed, pixel, sample, dimension), so an image is the same whatever the thread count
+and batch size. The renderer drives it like any integrator (integrators.PATH, units.py).
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ import threading
 
 import numpy as np
 
-from ..accel.bvh import BVHAccelerator
 from ..kernels.path.bounce import add_unblocked, dim1, dim2, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
@@ -51,12 +51,12 @@ class PathTracer:
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
             flat.plane_material))
-        # the fused bounce (kernels/path/wavefront.py) needs the one-level BVH's walk and every piece of shading in
-        # Numba: other accelerators, instances, solid textures and environment maps take the unfused wavefront
-        accel = ctx.accel
-        self._fused = (type(accel) is BVHAccelerator and accel.instances is None and not self.table.is_texture.any()
-                       and self.emitters.envmap is None)
-        self._bvh = accel._args() if self._fused else None
+        # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
+        # every piece of shading in Numba: other accelerators, instances, solid textures and environment maps take
+        # the unfused wavefront of closest_hit / any_hit queries
+        numba_shading = not self.table.is_texture.any() and self.emitters.envmap is None
+        self._bvh = ctx.accel.kernel_tree() if numba_shading else None
+        self._fused = self._bvh is not None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
