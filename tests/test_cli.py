@@ -203,7 +203,7 @@ def test_huge_size_is_one_line_before_anything(scene, tmp_path, capsys):
     out = tmp_path / "o.png"
     code, _, err = run(["render", str(scene), "-o", str(out), "--size", "100000", "100000"], capsys)
     assert code == 2 and err.count("\n") == 1
-    assert err.startswith("durer: a 100000 x 100000 image with 1 sample(s) per pixel would need about 2.6 TB")
+    assert err.startswith("durer: a 100000 x 100000 image with 1 sample(s) per pixel would need about 1.3 TB")
     assert not out.exists()
 
 

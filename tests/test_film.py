@@ -30,11 +30,41 @@ def opts(**kw) -> RenderOptions:
 
 
 # --- sampling -----------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("n,grid", [(1, (1, 1)), (2, (2, 1)), (3, (3, 1)), (8, (4, 2)), (12, (4, 3)), (16, (4, 4)),
+                                    (128, (16, 8))])
+def test_strata_are_the_grid_closest_to_square(n, grid):
+    assert film.strata(n) == grid
+
+
+@pytest.mark.parametrize("course", [False, True])
 @pytest.mark.parametrize("sampler", ["uniform", "jittered"])
 @pytest.mark.parametrize("n", [2, 3, 5, 8, 15])
-def test_stratified_samplers_need_a_perfect_square(sampler, n):
-    with pytest.raises(ValueError, match="perfect square"):
-        film.sample_points(4, 4, opts(samples=n, sampler=sampler))
+def test_any_sample_count_is_stratified(sampler, n, course):
+    """Counts that are not perfect squares put one sample in each cell of the a x b grid (film.strata)."""
+    a, b = film.strata(n)
+    w, h = 5, 3
+    points, pixel = film.sample_points(w, h, opts(samples=n, sampler=sampler, course_random=course))
+    row, col = np.divmod(pixel, w)
+    sx = np.floor((points[:, 0] - col) * a).astype(int)
+    sy = np.floor((points[:, 1] - (h - 1 - row)) * b).astype(int)
+    for p in range(w * h):
+        cells = sorted(zip(sx[pixel == p], sy[pixel == p], strict=True))
+        assert cells == sorted((i, j) for i in range(a) for j in range(b))
+
+
+def test_offsets_of_a_rectangle_are_the_image_offsets():
+    """tile_offsets of any rectangle and sample range equal the whole image's (the streams jump ahead)."""
+    for kw in (dict(sampler="random", seed=4), dict(sampler="jittered", course_random=True),
+               dict(sampler="random", course_random=True), dict(sampler="jittered", integrator="path")):
+        o = opts(samples=6, **kw)
+        whole = film.pixel_offsets(o, 9, 7).reshape(7, 9, 6, 2)
+        part = film.tile_offsets(o, 9, 7, range(2, 6), range(3, 8), range(1, 5))
+        np.testing.assert_array_equal(part.reshape(4, 5, 4, 2), whole[2:6, 3:8, 1:5])
+
+
+def test_drand48_jumps_ahead():
+    v = film.drand48(1000)
+    assert film.drand48(5, film.drand48_state(700))[0] == v[700]
 
 
 @pytest.mark.parametrize("course", [False, True])

@@ -3,6 +3,7 @@ batch sizes, course scenes, and a Mitsuba XML scene against Mitsuba 3's own rend
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import durer
+from durer.accel.bvh import BVHAccelerator
 from durer.kernels.path.warps import power_heuristic1
+from durer.rendering import integrators as I
 from durer.rendering import path as P
 from durer.rendering.sampling import sobol_pair
 from durer.scene.bsdfs import Diffuse, Surface
@@ -64,7 +67,7 @@ def test_sobol_pairs_are_stratified():
 def test_same_image_whatever_threads_and_batch(monkeypatch):
     """The same image to the bit whether one thread traces everything (Numba threads 1: one wavefront at a time),
     one wavefront splits its bounces over every thread (2^16-path wavefronts: this image is one), or up to
-    min(WORKERS, threads) wavefronts of 37 paths run at once with the threads shared out; another seed gives another
+    min(workers, threads) units in batches of 37 paths run at once with the threads shared out; another seed gives another
     image."""
     numba = pytest.importorskip("numba")
     scene = durer.load(EXAMPLES / "caustic.xml")
@@ -73,8 +76,7 @@ def test_same_image_whatever_threads_and_batch(monkeypatch):
     one = durer.render(scene, 16, 16, **kw).color
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     many = durer.render(scene, 16, 16, **kw).color
-    monkeypatch.setattr(P, "BATCH", 37)
-    monkeypatch.setattr(P, "WORKERS", 3)
+    monkeypatch.setattr(I, "PATH", dataclasses.replace(I.PATH, batch=37, workers=3))
     small = durer.render(scene, 16, 16, **kw).color
     np.testing.assert_array_equal(one, many)
     np.testing.assert_array_equal(one, small)
@@ -96,7 +98,7 @@ def test_fused_bounce_gives_the_unfused_image(monkeypatch, tmp_path):
     for scene in scenes:
         kw = dict(integrator="path", samples=2, max_depth=-1, seed=3)
         with monkeypatch.context() as m:
-            m.setattr(P, "BVHAccelerator", type("NotTheBVH", (), {}))  # PathTracer then takes the unfused wavefront
+            m.setattr(BVHAccelerator, "kernel_tree", lambda self: None)  # no tree to walk: the unfused wavefront
             before = len(calls)
             unfused = durer.render(scene, 16, 12, **kw)
             assert len(calls) == before
@@ -215,3 +217,16 @@ def test_environment_map_against_mitsuba(tmp_path):
     ours = durer.render(durer.load(tmp_path / "env.xml"), samples=128).color
     np.testing.assert_allclose(ours[:3, 1:], ref[:3, 1:], rtol=2e-3)  # the sky rows (column 0 straddles the seam)
     np.testing.assert_allclose(ours.mean(axis=(0, 1)), ref.mean(axis=(0, 1)), rtol=0.005)
+
+
+def test_path_tracer_reaches_any_accelerator_through_the_protocol():
+    """The path tracer asks the accelerator for a tree to walk (kernel_tree) and otherwise queries it: brute force
+    and the counting wrapper (-stats) give the BVH's image to the bit, and the counters see every path's rays."""
+    scene = durer.load(EXAMPLES / "cornell_box.xml")
+    kw = dict(samples=2, max_depth=3)
+    bvh = durer.render(scene, 12, 10, **kw)
+    brute = durer.render(scene, 12, 10, accel="brute", **kw)
+    counted = durer.render(scene, 12, 10, stats=True, **kw)
+    np.testing.assert_array_equal(bvh.color, brute.color)
+    np.testing.assert_array_equal(bvh.color, counted.color)
+    assert counted.stats.nonshadow_rays >= 12 * 10 * 2 and counted.stats.shadow_rays > 0

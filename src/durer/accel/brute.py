@@ -34,6 +34,10 @@ class BruteForce:
                         per_ray(t_min, n), per_ray(t_max, n), *self._geometry(), h.t, h.kind, h.prim, h.u, h.v)
         return h
 
+    def kernel_tree(self) -> None:
+        """No tree: integrators use closest_hit / any_hit (the Accelerator protocol)."""
+        return None
+
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)

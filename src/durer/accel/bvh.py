@@ -408,6 +408,10 @@ class BVHAccelerator:
         two-level structure, whose meshes are stored once)."""
         return self.tree.nbytes + (self.instances.nbytes if self.instances is not None else 0)
 
+    def kernel_tree(self) -> tuple | None:
+        """The one-level tree's kernel arrays (the Accelerator protocol); None with instances (two-level)."""
+        return self._args() if self.instances is None else None
+
     def _args(self):
         cs, tr = self.cs, self.tree
         return (tr.bounds.reshape(-1), tr.child, tr.leaf_prim, tr.leaf_tri.reshape(-1), cs.sphere_center,

@@ -142,6 +142,10 @@ class GridAccelerator:
             self.stats.add(n, False, int(tests.sum()), int(cells.sum()))
         return h
 
+    def kernel_tree(self) -> None:
+        """No tree: integrators query the grid (the Accelerator protocol), so its -stats count every ray."""
+        return None
+
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)

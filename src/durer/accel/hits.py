@@ -59,6 +59,14 @@ class Accelerator(Protocol):
         """(N,) bool: does the ray hit anything in (t_min, t_max)? May stop at the first hit found."""
         ...
 
+    def kernel_tree(self) -> tuple | None:
+        """The accelerator as the positional arrays of the one-level BVH walk that fused kernels call inside their
+        own loops (kernels/bvh/trace.py order: node bounds, children, leaf primitives, leaf triangles, sphere
+        centres, radii, world-to-object matrices, plane normals, offsets, stack size), or None when its queries
+        must go through closest_hit / any_hit (brute force, the grid, counters, instanced meshes). Integrators
+        with a fused kernel (rendering/path.py) use it when given, and the queries otherwise: same hits."""
+        ...
+
 
 def geometric_normals(cs: CompiledScene, hits: Hits, points: np.ndarray) -> np.ndarray:
     """Unit world-space normals (N,3) at the hit points, as the surface defines them (not flipped to the ray).

@@ -100,6 +100,10 @@ class CountingAccelerator:
         self.stats.add(len(origins), False, self._tests(len(origins)))
         return self.accel.closest_hit(origins, directions, t_min, t_max, width)
 
+    def kernel_tree(self) -> None:
+        """None: every ray must go through the counted queries, never a fused kernel's own walk."""
+        return None
+
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0):
         self.stats.add(len(origins), True, self._tests(len(origins)))
         return self.accel.any_hit(origins, directions, t_min, t_max, width)

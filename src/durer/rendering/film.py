@@ -3,24 +3,29 @@
 Film points are in pixel units, x right and y up from the bottom-left corner (see cameras.py). Images are
 (H, W, ...) with row 0 at the top, so pixel (row r, column c) covers x in [c, c+1], y in [H-1-r, H-r].
 
-Assignment 7 of the course:
-* samplers give n offsets in [0,1)^2 inside each pixel: `uniform` (the centres of an s x s grid, n = s^2; one
-  sample is the pixel centre), `random` (independent uniform offsets) and `jittered` (one random offset in each
-  cell of the s x s grid). Random offsets come from a numpy Generator seeded with options.seed, drawn in a fixed
-  order on one thread, so a render is the same bit for bit whatever the number of threads. The course command
-  (options.course_random) draws them instead from the course's own unseeded drand48 stream, in its order, which
-  reproduces the reference images exactly (see _course_offsets). Except in output7_05b/c and output7_06b
+Assignment 7 of the course, for any sample count n:
+* samplers give n offsets in [0,1)^2 inside each pixel: `uniform` (the centres of the a x b stratum grid,
+  `strata(n)`: s x s for n = s^2 as the course has it, 4 x 2 for 8, 3 x 1 for 3; one sample is the pixel centre),
+  `random` (independent uniform offsets) and `jittered` (one random offset in each cell of that grid). Random
+  offsets come from a numpy Generator seeded with options.seed, as if drawn pixel by pixel over the whole image
+  on one thread; a tile's offsets are that stream's slice, reached by jumping ahead (`_draws`), so a render is
+  the same bit for bit whatever its tiles and threads. The course command (options.course_random) draws them
+  instead from the course's own unseeded drand48 stream, in its order, which reproduces the reference images
+  exactly (see _draws). Except in output7_05b/c and output7_06b
   (jittered, glass sphere / gem): there the course's stream falls behind ours where rays first reach the glass,
   so something in the course's tracer draws from drand48 too. Measured on output7_05b by rendering with the whole
   stream shifted by K draws: K = 0 up to column 34 (course order: columns from the left, rows from the bottom),
   8 draws from column 40 on, more further right; the 4-8 columns between cannot be matched by any single insertion
   of up to 8 draws, and none of the sphere's rays has total internal reflection. What consumes them is unknown, so
-  those pixels carry independent jitter (output7_05b: mean difference 2.3/255).
+  those pixels carry independent jitter (output7_05b: mean difference 2.3/255). The path tracer places its film
+  samples with its own Owen-scrambled Sobol pairs instead (`uses_sobol`).
 * filters weigh a sample by its offset (dx, dy) from a pixel's centre: box (|dx|, |dy| <= r), tent
   (max(0, 1 - d/r)), gaussian (exp(-d^2 / 2 sigma^2)). A pixel is the weighted average of the samples of the
   pixels within the filter's integer support radius (cropped at the image border), ceil(extent - 1/2) with extent
   r for box and tent and 2 sigma for the gaussian. The gaussian is not clamped to zero beyond 2 sigma inside that
   support: the reference filter7_*.png images show exp(-2) = 0.135 at the corners of the support.
+  `reconstruct` filters every sample of an image at once; `gather` does the same for one tile from the samples of
+  the tile and its halo (the render's units, units.py), in the same order, so both give the same bits.
 """
 
 from __future__ import annotations
@@ -31,19 +36,19 @@ import numba as nb
 import numpy as np
 
 from ..options import RenderOptions
-from ..scene.cameras import pixel_centers
+from .sampling import PIXEL_KEY, key, sobol_pair
 
 BOX, TENT, GAUSSIAN = 0, 1, 2
 _FILTER_CODES = {"box": BOX, "tent": TENT, "gaussian": GAUSSIAN}
 
 
 # --- sampling ----------------------------------------------------------------------------------------------------
-def _grid_side(n: int, sampler: str) -> int:
-    s = math.isqrt(n)
-    if s * s != n:
-        raise ValueError(f"{sampler} sampling needs a perfect square number of samples per pixel "
-                         f"(1, 4, 9, 16, ...), got {n}")
-    return s
+def strata(n: int) -> tuple[int, int]:
+    """(columns, rows) of the stratum grid of n samples: the a x b grid with a * b = n closest to square (rows the
+    largest divisor of n not above sqrt(n), so a perfect square s^2 gives today's s x s grid, 8 gives 4 x 2 and a
+    prime p gives p x 1). Sample m lies in cell (m mod columns, m div columns)."""
+    rows = next(b for b in range(math.isqrt(n), 0, -1) if n % b == 0)
+    return n // rows, rows
 
 
 @nb.njit(cache=True)
@@ -59,60 +64,95 @@ def drand48(count: int, state: int = 0) -> np.ndarray:
     return out
 
 
-def _course_offsets(options: RenderOptions, width: int, height: int) -> np.ndarray:
-    """The course's random and jittered offsets (H*W, n, 2) in our pixel order.
+def drand48_state(steps: int, state: int = 0) -> int:
+    """The drand48 state `steps` draws after `state`, in O(log steps): the LCG's affine map raised to a power."""
+    a, c, mod = 0x5DEECE66D, 0xB, 1 << 48
+    mul, add = 1, 0  # the composed map x -> mul x + add
+    while steps:
+        if steps & 1:
+            mul, add = (mul * a) % mod, (add * a + c) % mod
+        a, c = (a * a) % mod, (c * a + c) % mod
+        steps >>= 1
+    return (mul * state + add) % mod
 
-    Its samplers call drand48() with no seed while the film is filled column by column from the bottom-left
-    pixel (i over x outside, j over y inside, then the n samples). RandomSampler evaluates
-    Vec2f(drand48(), drand48()) right to left (the first value is y); JitteredSampler takes x then y and puts
-    sample m in cell (m mod s, m div s). This reproduces the reference samples7_* images dot for dot."""
+
+def _draws(options: RenderOptions, width: int, height: int, rows: range, cols: range) -> np.ndarray:
+    """The 2n random numbers of each pixel of the rectangle (len(rows) * len(cols), n, 2), pixels row-major: the
+    slice of the whole image's stream a one-thread draw over all pixels gives them, found by jumping ahead.
+
+    Seeded: numpy's PCG64 (default_rng(seed)) draws pixel by pixel in row-major order, one 64-bit output per
+    value, so row r's run starts (r W + c0) 2n outputs in. The course (course_random): its unseeded drand48 fills
+    the film column by column from the bottom-left pixel (column i, row j from the bottom: 2n((i H + j)) draws
+    in), so column runs are contiguous and reversed into our top-down rows."""
     n = options.samples
-    v = drand48(2 * n * width * height).reshape(width, height, n, 2)
-    if options.sampler == "random":
-        off = v[..., ::-1]
-    else:
-        s = _grid_side(n, options.sampler)
-        m = np.arange(n)
-        cells = np.stack([m % s, m // s], axis=-1).astype(np.float64)
-        off = (cells + v) / s
-    # course (i = column, j = row from the bottom) -> our (row from the top, column)
-    return off[:, ::-1].transpose(1, 0, 2, 3).reshape(width * height, n, 2)
+    out = np.empty((len(rows), len(cols), n, 2))
+    if options.course_random:
+        j_lo = height - rows.stop  # the rectangle's lowest row counted from the bottom
+        for k, i in enumerate(cols):
+            run = drand48(2 * n * len(rows), drand48_state(2 * n * (i * height + j_lo)))
+            out[:, k] = run.reshape(len(rows), n, 2)[::-1]
+        return out.reshape(-1, n, 2)
+    start = np.random.PCG64(options.seed)
+    for k, r in enumerate(rows):
+        bits = np.random.PCG64()
+        bits.state = start.state
+        bits.advance(2 * n * (r * width + cols.start))
+        out[k] = np.random.Generator(bits).random((len(cols), n, 2))
+    return out.reshape(-1, n, 2)
+
+
+def uses_sobol(options: RenderOptions) -> bool:
+    """The path tracer places film samples with its Owen-scrambled Sobol pairs (sampling.py), whatever the
+    sampler: they are stratified for every sample count and keyed by (pixel, sample), like its other dimensions."""
+    return options.integrator == "path"
+
+
+def tile_offsets(options: RenderOptions, width: int, height: int, rows: range, cols: range,
+                 samples: range) -> np.ndarray:
+    """Sample offsets (P, S, 2) in [0,1)^2 (x right, y up in the pixel) of samples `samples` of the P pixels of
+    the rectangle rows x cols, row-major: the same values whatever rectangle a pixel is generated in."""
+    n, sampler = options.samples, options.sampler
+    count, s = len(rows) * len(cols), len(samples)
+    if uses_sobol(options):
+        r, c = np.divmod(np.arange(count), len(cols))
+        pix = np.repeat((r + rows.start) * width + c + cols.start, s)
+        sidx = np.tile(np.arange(samples.start, samples.stop), count)
+        return sobol_pair(key(options.seed, pix, np.full(len(pix), PIXEL_KEY)), sidx, 0).reshape(count, s, 2)
+    a, b = strata(n)
+    m = np.arange(samples.start, samples.stop)
+    cells = np.stack([m % a, m // a], axis=-1).astype(np.float64)  # cell (x, y) of each sample
+    size = np.array([a, b], dtype=np.float64)
+    if sampler == "uniform":
+        return np.broadcast_to((cells + 0.5) / size, (count, s, 2))
+    if sampler not in ("random", "jittered"):
+        raise ValueError(f"unknown sampler {sampler!r}")
+    v = _draws(options, width, height, rows, cols)[:, samples.start:samples.stop]
+    if sampler == "random":
+        # the course's RandomSampler evaluates Vec2f(drand48(), drand48()) right to left: the first value is y
+        return v[..., ::-1] if options.course_random else v
+    return (cells + v) / size
 
 
 def pixel_offsets(options: RenderOptions, width: int, height: int) -> np.ndarray:
     """Sample offsets (H*W, n, 2) in [0,1)^2 for every pixel in row-major order (x right, y up in the pixel)."""
-    n, sampler, count = options.samples, options.sampler, width * height
-    if sampler == "uniform":
-        s = _grid_side(n, sampler)
-        c = (np.arange(s) + 0.5) / s
-        grid = np.stack(np.meshgrid(c, c, indexing="xy"), axis=-1).reshape(n, 2)
-        return np.broadcast_to(grid, (count, n, 2))
-    if sampler not in ("random", "jittered"):
-        raise ValueError(f"unknown sampler {sampler!r}")
-    if options.course_random:
-        return _course_offsets(options, width, height)
-    rng = np.random.default_rng(options.seed)
-    if sampler == "random":
-        return rng.random((count, n, 2))
-    s = _grid_side(n, sampler)
-    a = np.arange(s, dtype=np.float64)
-    cells = np.stack(np.meshgrid(a, a, indexing="xy"), axis=-1).reshape(n, 2)
-    return (cells + rng.random((count, n, 2))) / s
+    return tile_offsets(options, width, height, range(height), range(width), range(options.samples))
+
+
+def tile_points(options: RenderOptions, width: int, height: int, rows: range, cols: range,
+                samples: range) -> np.ndarray:
+    """Film points (P*S, 2) of samples `samples` of the rectangle's pixels, grouped by pixel (row-major)."""
+    off = tile_offsets(options, width, height, rows, cols, samples)
+    r, c = np.divmod(np.arange(len(rows) * len(cols)), len(cols))
+    corner = np.stack([c + cols.start, height - 1 - (r + rows.start)], axis=-1).astype(np.float64)
+    return (corner[:, None, :] + off).reshape(-1, 2)
 
 
 def sample_points(width: int, height: int, options: RenderOptions) -> tuple[np.ndarray, np.ndarray]:
-    """Film points (N,2) of every sample and the flat pixel index (row-major, row 0 on top) each belongs to.
-
-    Samples are grouped by pixel, pixels in row-major order, options.samples per pixel."""
-    if options.samples == 1 and options.sampler == "uniform":
-        points = pixel_centers(width, height).reshape(-1, 2)
-        return points, np.arange(width * height)
-    count = width * height
-    offsets = pixel_offsets(options, width, height)
-    row, col = np.divmod(np.arange(count), width)
-    corner = np.stack([col, height - 1 - row], axis=-1).astype(np.float64)  # bottom-left corner of each pixel
-    points = (corner[:, None, :] + offsets).reshape(-1, 2)
-    return points, np.repeat(np.arange(count), options.samples)
+    """Film points (N,2) of every sample of the image and the flat pixel index (row-major, row 0 on top) each
+    belongs to. Samples are grouped by pixel, pixels in row-major order, options.samples per pixel; the render's
+    units place the same points (tile_points)."""
+    points = tile_points(options, width, height, range(height), range(width), range(options.samples))
+    return points, np.repeat(np.arange(width * height), options.samples)
 
 
 # --- filtering ---------------------------------------------------------------------------------------------------
@@ -199,3 +239,42 @@ def reconstruct(points: np.ndarray, pixel: np.ndarray, values: np.ndarray, width
     _reconstruct(np.ascontiguousarray(points, dtype=np.float64), start, order.astype(np.int64), vals, width, height,
                  _FILTER_CODES[options.filter], float(options.filter_radius), support_radius(options), out)
     return out.reshape((count,) + np.shape(values)[1:])
+
+
+@nb.njit(cache=True)
+def _gather(points, values, per_pixel, halo, tile, width, height, kind, r, radius, acc, wsum):
+    """acc[p] += w * value and wsum[p] += w over the samples of the pixels within `radius` of each tile pixel p, in
+    _reconstruct's order (neighbour pixels row-major, then their samples in order). The samples are those of the
+    halo rectangle (row, col, rows, cols), per_pixel to a pixel, row-major; the tile lies inside it."""
+    channels = values.shape[1]
+    hr, hc, _, hw = halo
+    tr, tc, th, tw = tile
+    for i in range(th):
+        row = tr + i
+        cy = height - row - 0.5
+        for j in range(tw):
+            col = tc + j
+            cx = col + 0.5
+            p = i * tw + j
+            total = wsum[p]
+            for rr in range(max(0, row - radius), min(height, row + radius + 1)):
+                for cc in range(max(0, col - radius), min(width, col + radius + 1)):
+                    q = (rr - hr) * hw + (cc - hc)
+                    for s in range(q * per_pixel, (q + 1) * per_pixel):
+                        w = _weight(kind, r, points[s, 0] - cx, points[s, 1] - cy)
+                        if w != 0.0:
+                            total += w
+                            for c in range(channels):
+                                acc[p, c] += w * values[s, c]
+            wsum[p] = total
+
+
+def gather(points: np.ndarray, values: np.ndarray, per_pixel: int, halo: tuple[int, int, int, int],
+           tile: tuple[int, int, int, int], width: int, height: int, options: RenderOptions,
+           acc: np.ndarray, wsum: np.ndarray) -> None:
+    """Add the filter-weighted sample values (N,C) and weights of a halo rectangle's samples into the sums acc
+    (T,C) and wsum (T,) of the tile's T pixels (rectangles as (row, col, rows, cols)). With acc and wsum zero and
+    every sample of the image at hand this is reconstruct's numerator and denominator to the bit."""
+    _gather(np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(values, dtype=np.float64),
+            int(per_pixel), halo, tile, int(width), int(height), _FILTER_CODES[options.filter],
+            float(options.filter_radius), support_radius(options), acc, wsum)

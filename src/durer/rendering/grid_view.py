@@ -22,7 +22,8 @@ COUNT_COLORS = np.array([
 
 
 
-def visualize_grid(ctx, origins: np.ndarray, directions: np.ndarray, t_min: float):
+def visualize_grid(ctx, origins: np.ndarray, directions: np.ndarray, t_min: float, pixel: np.ndarray | None = None,
+                   sample: np.ndarray | None = None) -> SampleResult:
     """Integrator for -visualize_grid: each ray shows the first occupied cell it enters, as an opaque box.
 
     The face's normal is that of the cell face crossed to enter it (the axis the 3D-DDA stepped last, facing

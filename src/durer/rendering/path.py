@@ -3,41 +3,35 @@ importance sampling (power heuristic), and Russian roulette, as Mitsuba 3's `pat
 
 `max_depth` has Mitsuba's meaning: 1 shows emitters seen directly, 2 adds direct light, -1 is unbounded (paths end
 by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths are traced as a wavefront, one
-bounce of all live paths of a batch at a time, with no Python loop over rays. On the default one-level BVH a bounce
-is one Numba kernel (kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path);
-otherwise (other accelerators, instances, solid textures, environment maps) it is one closest_hit and one any_hit
-query on the scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces
-(kernels/path/surface.py) and one for the shading (kernels/path/bounce.py: emission, light sample, BSDF sample, Russian
-roulette, next ray). Both give the same numbers to the bit. Random numbers come from the counter-based stream of
-sampling.py / kernels/path/qmc.py keyed by (seed, pixel, sample, dimension), so an image is the same whatever the thread
-count and batch size.
+bounce of all live paths of a batch at a time, with no Python loop over rays. When the accelerator offers a
+one-level tree to walk (Accelerator.kernel_tree: the default BVH without instances) a bounce is one Numba kernel
+(kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path); otherwise (other
+accelerators, instances, solid textures, environment maps) it is one closest_hit and one any_hit query on the
+scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces (kernels/path/surface.py)
+and one for the shading (kernels/path/bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray).
+Both give the same numbers to the bit. Random numbers come from the counter-based stream of sampling.py /
+kernels/path/qmc.py keyed by (seed, pixel, sample, dimension), so an image is the same whatever the thread count
+and batch size. The renderer drives it like any integrator (integrators.PATH, units.py).
 """
 
 from __future__ import annotations
 
 import threading
-from concurrent.futures import ThreadPoolExecutor
 
-import numba as nb
 import numpy as np
 
-from ..accel.bvh import BVHAccelerator
 from ..kernels.path.bounce import add_unblocked, dim1, dim2, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
-from ..scene.cameras import image_camera
-from . import film
 from .bsdfs import BSDFTable
 from .emitters import Emitters
-from .raycaster import RenderContext
-from .sampling import key, max3, normalize, seed_key, sobol_pair, uniform
+from .raycaster import RenderContext, SampleResult
+from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, sobol_pair, uniform
 from .texturing import leaf_weights
 
-BATCH = 1 << 16        # paths per wavefront: whole passes of small images together (2^14 -> 2^16: 1.5x faster)
+BATCH = 1 << 16        # each thread's wavefront buffers hold this many paths at least (integrators.PATH_BATCH)
 MAX_BOUNCES = 1024     # a hard stop for unbounded paths whose throughput never falls (e.g. weights >= 1)
-WORKERS = 2            # wavefronts traced at once (the kernels and NumPy free the GIL)
-PIXEL_KEY = 0xFFFFFFFF  # the sample index of a pixel's own key (Sobol scrambles), never a real sample index
 
 
 class PathTracer:
@@ -57,14 +51,13 @@ class PathTracer:
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
             flat.plane_material))
-        # the fused bounce (kernels/path/wavefront.py) needs the one-level BVH's walk and every piece of shading in
-        # Numba: other accelerators, instances, solid textures and environment maps take the unfused wavefront
-        accel = ctx.accel
-        self._fused = (type(accel) is BVHAccelerator and accel.instances is None and not self.table.is_texture.any()
-                       and self.emitters.envmap is None)
-        self._bvh = accel._args() if self._fused else None
+        # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
+        # every piece of shading in Numba: other accelerators, instances, solid textures and environment maps take
+        # the unfused wavefront of closest_hit / any_hit queries
+        numba_shading = not self.table.is_texture.any() and self.emitters.envmap is None
+        self._bvh = ctx.accel.kernel_tree() if numba_shading else None
+        self._fused = self._bvh is not None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
-        self.threads: int | None = None  # threads of each fused bounce kernel (None: numba's; render_path sets it)
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
         """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
@@ -93,7 +86,7 @@ class PathTracer:
             scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth)
             run_pieces(trace_bounce, PIECES, live, o, d, thr, eta, prev, path, self._bvh, self._surfaces,
                        self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, (first_t, first_n), alive,
-                       work, threads=self.threads)
+                       work)
             if last:
                 break
             live = live[alive[:len(live)]]
@@ -223,67 +216,15 @@ class PathTracer:
         return out
 
 
-def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Path-trace the image: options.samples passes over all pixels (the progress bar counts them), each sample
-    splatted through the reconstruction filter. Returns pixel colours (H*W,3), depth (H*W,) and normals (H*W,3) of
-    each pixel's first sample."""
-    options = ctx.options
-    tracer = PathTracer(ctx)
-    camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
-    count = width * height
-    acc, wsum = np.zeros((count, 3)), np.zeros(count)
-    depth, normals = np.full(count, np.inf), np.zeros((count, 3))
-    radius = film.support_radius(options)
-    row_all, col_all = np.divmod(np.arange(count), width)
-    # a wavefront holds BATCH paths: whole passes (all pixels, several samples each) when the image is small
-    per_pass = max(1, min(options.samples, BATCH // max(count, 1)))
-    jobs = []
-    for first in range(0, options.samples, per_pass):
-        total = count * min(per_pass, options.samples - first)
-        jobs += [(first, lo, min(total, lo + BATCH)) for lo in range(0, total, BATCH)]
-
-    def run(job):
-        first, lo, hi = job
-        sidx, pix = np.divmod(np.arange(lo, hi), count)
-        sidx = sidx + first
-        off = sobol_pair(key(options.seed, pix, np.full(len(pix), PIXEL_KEY)), sidx, 0)
-        row, col = row_all[pix], col_all[pix]
-        pts = np.column_stack([col + off[:, 0], height - 1 - row + off[:, 1]])
-        o, d, valid = camera.generate_rays(pts, width, height)
-        if valid.all():  # every pinhole and orthographic ray: no gathers and scatters
-            return (pts, row, col, pix, sidx) + tracer.trace(o, d, camera.t_min, pix, sidx)
-        color = np.zeros((len(pix), 3))
-        v = np.flatnonzero(valid)
-        t_first, n_first = np.full(len(pix), np.inf), np.zeros((len(pix), 3))
-        if len(v):
-            color[v], t_first[v], n_first[v] = tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v])
-        return pts, row, col, pix, sidx, color, t_first, n_first
-
-    # the kernels are nogil: up to WORKERS wavefronts are traced at once, each bounce's kernel on the threads left
-    # to it (one each when two run: two wavefronts on two cores each splitting its bounces over both threads took
-    # 1.35x the wall time, caustic scene, 32 spp); results are splatted in job order, so the image does not depend
-    # on which finishes first nor on the thread counts
-    threads = nb.get_num_threads()
-    workers = max(1, min(WORKERS, threads, len(jobs)))
-    tracer.threads = max(1, threads // workers)
-    with ThreadPoolExecutor(workers, thread_name_prefix="durer-path") as pool:
-        for pts, row, col, pix, sidx, color, t_first, n_first in pool.map(run, jobs):
-            s0 = sidx == 0
-            depth[pix[s0]], normals[pix[s0]] = t_first[s0], n_first[s0]
-            _splat(options, pts, row, col, color, width, height, radius, acc, wsum)
-            bar.update(len(pix) / count)
-    out = np.divide(acc, wsum[:, None], out=np.zeros_like(acc), where=wsum[:, None] > 0)
-    return out, depth, normals
-
-
-def _splat(options, pts, row, col, color, width, height, radius, acc, wsum) -> None:
-    """Add each sample, weighted by the filter, to every pixel within the filter's support."""
-    for dr in range(-radius, radius + 1):
-        for dc in range(-radius, radius + 1):
-            r, c = row + dr, col + dc
-            ok = (r >= 0) & (r < height) & (c >= 0) & (c < width)
-            w = film.filter_weight(options, pts[:, 0] - (c + 0.5), pts[:, 1] - (height - r - 0.5)) * ok
-            target = np.where(ok, r * width + c, 0)
-            wsum += np.bincount(target, weights=w, minlength=len(wsum))
-            for ch in range(3):
-                acc[:, ch] += np.bincount(target, weights=w * color[:, ch], minlength=len(wsum))
+def path_trace(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float,
+               pixel: np.ndarray | None = None, sample: np.ndarray | None = None) -> SampleResult:
+    """The path tracer as an integrator: radiance (N,3) along camera rays of film samples (pixel, sample index:
+    the keys of their random numbers), with t and geometric normal of the first hit. The PathTracer is built once
+    per context (and process) and shared by the threads tracing units."""
+    if pixel is None or sample is None:
+        raise ValueError("the path tracer keys its random numbers by pixel and sample index: give both")
+    tracer = ctx.cache.get("path")
+    if tracer is None:
+        tracer = ctx.cache.setdefault("path", PathTracer(ctx))
+    color, t, normal = tracer.trace(origins, directions, t_min, np.asarray(pixel), np.asarray(sample))
+    return SampleResult(color, t, normal)

@@ -29,6 +29,11 @@ class RenderContext:
     options: RenderOptions = field(default_factory=RenderOptions)
     materials: MaterialTable | None = None
     textured: bool = False  # some material has an image texture: integrators compute UVs at the hits
+    # what an integrator builds once per process and reuses (the path tracer's tables and buffers); not pickled
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "cache": {}}
 
     def __post_init__(self):
         if self.materials is None and self.scene.lights is not None:
@@ -98,8 +103,10 @@ def smooth_normals(cs: CompiledScene, hits: Hits, points, directions, geometric:
     return out
 
 
-def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float) -> SampleResult:
-    """Eye rays only: background on a miss; flat colour or ambient + diffuse + specular on a hit."""
+def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float,
+            pixel: np.ndarray | None = None, sample: np.ndarray | None = None) -> SampleResult:
+    """Eye rays only: background on a miss; flat colour or ambient + diffuse + specular on a hit (no random
+    numbers: pixel and sample, the integrators' common signature, are not needed)."""
     scene = ctx.scene
     hits = ctx.accel.closest_hit(origins, directions, t_min=t_min)
     n = len(origins)

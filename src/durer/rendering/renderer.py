@@ -5,129 +5,25 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import dataclass, fields
+from dataclasses import fields
 
-import numpy as np
-
-from ..accel.brute import BruteForce
-from ..accel.bvh import BVHAccelerator
-from ..accel.compile import compile_scene, spheres_under_transform, with_course_edges
-from ..accel.grid import GridAccelerator
-from ..accel.hits import Accelerator
-from ..accel.stats import CountingAccelerator, RayStats
-from ..io.images import depth_visualization, encode_srgb, normal_visualization, save_image
-from ..kernels.bvh.layout import TILE
 from ..options import RenderOptions
 from ..scene.bsdfs import BSDF, Surface
-from ..scene.cameras import image_camera
 from ..scene.graph import Scene
-from ..scene.validate import check_scene
-from . import film
-from .grid_view import visualize_grid
-from .raycaster import RenderContext, SampleResult, raycast
-from .whitted import whitted
+from .integrators import integrator_for
+from .raycaster import RenderContext
+from .result import RenderResult
+from .units import job_for, make_context, plan, run
+
+__all__ = ["RenderResult", "check_size", "make_context", "make_options", "render", "render_in"]
 
 PHYSICAL = (Surface, *BSDF.__args__)  # materials only the path tracer renders
-CHUNK = 1 << 13  # rays per batch: enough to keep the kernels busy, few enough for a live progress bar
-
-
-@dataclass
-class RenderResult:
-    """The arrays of one render, each (H, W, ...), row 0 at the top.
-
-    color: float32 (H,W,3) linear radiance; depth: float32 (H,W) ray parameter t of the closest hit (inf on a miss);
-    normals: float32 (H,W,3) unit world-space normals of the closest hit (0 on a miss). With several samples per
-    pixel, depth and normals are those of the sample nearest the pixel's centre.
-    """
-
-    color: np.ndarray
-    depth: np.ndarray
-    normals: np.ndarray
-    seconds: float = 0.0
-    stats: RayStats | None = None  # -stats counters (None unless options.stats)
-
-    def __repr__(self) -> str:
-        h, w = self.depth.shape
-        hit = int(np.isfinite(self.depth).sum())
-        return (f"<RenderResult {w}x{h}: {hit} of {w * h} pixels hit, colour up to {float(self.color.max()):.3g} "
-                f"(linear), {self.seconds:.2f} s>")
-
-    def to_srgb8(self) -> np.ndarray:
-        """The colour as an sRGB-encoded uint8 (H, W, 3) array, as `save` writes it and as image viewers and
-        `plt.imshow` expect (`color` itself is linear radiance, which looks too dark shown directly)."""
-        return encode_srgb(self.color)
-
-    def _repr_png_(self) -> bytes:
-        """PNG bytes of `to_srgb8()`: Jupyter shows a RenderResult as its image."""
-        import io
-
-        from PIL import Image
-
-        buffer = io.BytesIO()
-        Image.fromarray(self.to_srgb8(), mode="RGB").save(buffer, format="PNG")
-        return buffer.getvalue()
-
-    def save(self, path: str | os.PathLike, *, course: bool = False) -> None:
-        """Write the colour image (8-bit formats sRGB-encoded, or truncated like the course with course=True)."""
-        save_image(os.fspath(path), self.color, course=course)
-
-    def save_depth(self, path: str | os.PathLike, near: float | None = None, far: float | None = None) -> None:
-        """Write depth: raw t for .npy/.pfm, else grey with near = white and far = black (default: the hit range)."""
-        path = os.fspath(path)
-        if path.lower().endswith((".npy", ".pfm")):
-            save_image(path, self.depth)
-            return
-        finite = self.depth[np.isfinite(self.depth)]
-        if near is None:
-            near = float(finite.min()) if finite.size else 0.0
-        if far is None:
-            far = float(finite.max()) if finite.size else 1.0
-        if far == near:
-            far = near + 1.0
-        save_image(path, depth_visualization(self.depth, near, far), course=True)
-
-    def save_normals(self, path: str | os.PathLike) -> None:
-        """Write normals: raw for .npy/.pfm, else |n| per channel."""
-        path = os.fspath(path)
-        if path.lower().endswith((".npy", ".pfm")):
-            save_image(path, self.normals)
-            return
-        save_image(path, normal_visualization(self.normals), course=True)
-
-
-def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
-    """Check the scene (ValueError naming a wrong object), compile it and build its accelerator."""
-    check_scene(scene)
-    cs = compile_scene(scene)
-    # the course command: triangles accept points just outside their edges, as the course's (compile.py)
-    hit_cs = with_course_edges(cs) if options.course_edges else cs
-    # the lecture's loop over every object (--accel brute), or the bounding volume hierarchy (the default)
-    accel: Accelerator = BruteForce(hit_cs) if options.accel == "brute" else BVHAccelerator(hit_cs)
-    # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
-    # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
-    stats = RayStats(bounds=cs.bounds()) if options.stats else None
-    if options.grid is not None:
-        accel = GridAccelerator(cs, options.grid, sphere_as_box=spheres_under_transform(scene), stats=stats)
-        accel.cs = hit_cs  # cells hold the triangles' boxes as given (the course's insertion); tests use hit_cs
-    elif stats is not None:
-        # the course's -stats without a grid counts its loop over every object; measure that same loop, so the
-        # counts are real and compare with the course's (the image is the same as the BVH's, as tests check)
-        accel = CountingAccelerator(BruteForce(hit_cs), stats, sum(cs.counts))
-    return RenderContext(scene=scene, compiled=hit_cs, accel=accel, options=options)
 
 
 def choose_integrator(options: RenderOptions):
-    """The lecture's ray caster unless the options ask for secondary rays (or for the grid's cells), or the one
-    options.integrator names (the path tracer is driven by render() itself: rendering/path.py)."""
-    if options.integrator == "raycast":
-        return raycast
-    if options.integrator == "whitted":
-        return whitted
-    if options.visualize_grid:  # -visualize_grid (grid.py): draw the occupied grid cells instead
-        return visualize_grid
-    if options.shadows or options.bounces > 0:
-        return whitted
-    return raycast
+    """The integrator function the options choose (integrators.integrator_for): `trace(ctx, origins, directions,
+    t_min, pixel=None, sample=None) -> SampleResult`."""
+    return integrator_for(options).trace
 
 
 class _NoBar:
@@ -201,67 +97,57 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
         raise ValueError(f"image size must be positive integers, got {width} x {height}")
     width, height = int(width), int(height)
     options = make_options(options, **kwargs)
-    check_size(width, height, options.samples)
+    check_size(width, height, options.samples, options)
     if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in scene.materials):
         raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
                          "integrator='path'")
     start = time.perf_counter()
     if not quiet and kernels_cold():
         print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
-    ctx = make_context(scene, options)
-    if options.integrator == "path":  # issue 10: rendering/path.py drives its own passes, one per sample
-        from .path import render_path
-
-        with _progress(options.samples, quiet, unit="spp") as bar:
-            color, depth, normals = render_path(ctx, width, height, bar)
-        return RenderResult(color=color.reshape(height, width, 3).astype(np.float32),
-                            depth=depth.reshape(height, width).astype(np.float32),
-                            normals=normals.reshape(height, width, 3).astype(np.float32),
-                            seconds=time.perf_counter() - start)
-    return render_in(ctx, width, height, quiet=quiet, start=start)
+    return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
 
 
 def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,
               start: float | None = None) -> RenderResult:
     """render() with a prepared context: the preview renders many views of one compiled scene (ctx.scene's camera
-    is the one used, so a view is RenderContext(scene with another camera, the same compiled scene and accel))."""
+    is the one used, so a view is RenderContext(scene with another camera, the same compiled scene and accel)).
+    It is the units of work of units.py run here: prepare, every unit, finish."""
+    from .units import finish
+
     start = time.perf_counter() if start is None else start
-    scene, options = ctx.scene, ctx.options
-    integrate = choose_integrator(options)
-    camera = image_camera(scene.camera, width, height)  # a model's framed camera fits this image's shape
-    points, pixel = film.sample_points(width, height, options)
-    origins, directions, valid = camera.generate_rays(points, width, height)
-    n = len(points)
-    color = np.broadcast_to(np.zeros(3), (n, 3)).copy()
-    color[~valid] = scene.background_color  # film points without a ray (outside a fisheye's circle)
-    depth = np.full(n, np.inf)
-    normals = np.zeros((n, 3))
-    idx = np.flatnonzero(valid)
-    step = _chunk(len(idx), width, height)
-    with _progress(len(idx), quiet) as bar:
-        for lo in range(0, len(idx), step):
-            sel = idx[lo:lo + step]
-            r: SampleResult = integrate(ctx, origins[sel], directions[sel], camera.t_min)
-            color[sel], depth[sel], normals[sel] = r.color, r.t, r.normal
-            bar.update(len(sel))
-    pixels = film.reconstruct(points, pixel, color, width, height, options)
-    centre = _nearest_to_centre(points, pixel, width, height)
-    return RenderResult(
-        color=pixels.reshape(height, width, 3).astype(np.float32),
-        depth=depth[centre].reshape(height, width).astype(np.float32),
-        normals=normals[centre].reshape(height, width, 3).astype(np.float32),
-        seconds=time.perf_counter() - start,
-        stats=getattr(ctx.accel, "stats", None),
-    )
+    job = job_for(ctx, width, height)
+    with _progress(width * height * ctx.options.samples, quiet) as bar:
+        acc = run(job, bar=bar)
+    result = finish(job, acc)
+    result.seconds = time.perf_counter() - start
+    return result
 
 
-BYTES_PER_SAMPLE = 200  # film points, rays, colour, depth, normals, pixel ids and the filter's buffers (float64)
-BYTES_PER_PIXEL = 60    # the float32 colour, depth and normal images of the result
+# measured (peak RSS of `durer render`, spheres.txt and cornell_box.xml): 180 MB at 16 x 16, +122 bytes a pixel
+# from 1024^2 to 2048^2 pixels, +50 MB for two path-tracing units of 2^18 samples over one of 2^16
+BYTES_PER_PIXEL = 130   # the image's float64 sums (colour, weight), depth, normal and centre distance; the result
+BYTES_PER_SAMPLE = 200  # a unit's film points, rays, pixel and sample ids, per-sample colour, t and normal
+BASE_BYTES = 200 << 20  # Python, NumPy, Numba and the compiled kernels
 
 
-def check_size(width: int, height: int, samples: int = 1) -> None:
+def memory_needed(width: int, height: int, samples: int = 1, options: RenderOptions | None = None) -> int:
+    """Bytes a render allocates at its peak: the image's accumulators (O(pixels)) and, for each unit traced at
+    once, its samples (tile and halo x one pass, units.plan) and one batch of the integrator's working memory. It
+    does not grow with the sample count beyond one pass. Without options: the most any integrator needs."""
+    from .film import support_radius
+    from .integrators import PATH, RAYCAST, WHITTED
+
+    radius = support_radius(options) if options is not None else 0
+    side, per_pass = plan(samples, radius)
+    unit = per_pass * (side + 2 * radius) ** 2
+    chosen = [integrator_for(options)] if options is not None else [RAYCAST, WHITTED, PATH]
+    units = max(i.workers * (unit * BYTES_PER_SAMPLE + i.batch * i.bytes_per_ray) for i in chosen)
+    return BASE_BYTES + width * height * BYTES_PER_PIXEL + units
+
+
+def check_size(width: int, height: int, samples: int = 1, options: RenderOptions | None = None) -> None:
     """ValueError before anything is allocated if the render would need more memory than the machine has."""
-    need = width * height * (samples * BYTES_PER_SAMPLE + BYTES_PER_PIXEL)
+    need = memory_needed(width, height, samples, options)
     have = physical_memory()
     if have and need > have:
         raise ValueError(f"a {width} x {height} image with {samples} sample(s) per pixel would need about "
@@ -301,25 +187,3 @@ def kernels_cold(folder: str | None = None) -> bool:
     except OSError:
         return True
     return not all(any(n.startswith(m + ".") and n.endswith(".nbi") for n in names) for m in COLD_CHECK)
-
-
-def _chunk(n_rays: int, width: int, height: int) -> int:
-    """Rays per batch: CHUNK, rounded to whole bands of TILE image rows when the rays are the pixels' own, row
-    by row (one sample per pixel, every ray valid), so each batch is whole 4 x 4 tiles, which the BVH finds
-    (accel/bvh.flat_image_width) and traces as packets."""
-    band = TILE * width
-    if n_rays != width * height or height % TILE or width % TILE:
-        return CHUNK
-    return max(1, CHUNK // band) * band
-
-
-def _nearest_to_centre(points: np.ndarray, pixel: np.ndarray, width: int, height: int) -> np.ndarray:
-    """For each pixel (row-major), the index of its sample nearest the pixel's centre."""
-    if len(pixel) == width * height and np.array_equal(pixel, np.arange(width * height)):
-        return pixel
-    row, col = np.divmod(pixel, width)
-    d2 = (points[:, 0] - (col + 0.5)) ** 2 + (points[:, 1] - (height - row - 0.5)) ** 2
-    order = np.lexsort((d2, pixel))
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = pixel[order[1:]] != pixel[order[:-1]]
-    return order[first]

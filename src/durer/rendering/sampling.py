@@ -16,6 +16,7 @@ import numpy as np
 from ..kernels.path.qmc import sobol_pair_kernel, uniform_kernel
 
 _U64 = np.uint64
+PIXEL_KEY = 0xFFFFFFFF  # the sample index of a pixel's own key (Sobol scrambles), never a real sample index
 
 
 def mix64(x: np.ndarray) -> np.ndarray:

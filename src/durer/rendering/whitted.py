@@ -93,9 +93,11 @@ def secondary_coefficients(ctx: RenderContext, mat: np.ndarray,
     return reflective, transparent, ior
 
 
-def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float) -> SampleResult:
+def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float,
+            pixel: np.ndarray | None = None, sample: np.ndarray | None = None) -> SampleResult:
     """Trace camera rays with shadows (if ctx.options.shadows), reflection and refraction up to
-    ctx.options.bounces levels; returns linear colour and the camera rays' closest t and normal.
+    ctx.options.bounces levels; returns linear colour and the camera rays' closest t and normal (deterministic:
+    pixel and sample, the integrators' common signature, are not needed).
 
     A scene without a Lights block is drawn in flat colour (assignment 1): with no lights there is nothing to cast
     shadow rays to and no shading to reflect, so it is the ray caster's image."""

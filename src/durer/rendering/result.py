@@ -1,0 +1,84 @@
+"""RenderResult: the arrays of one render (colour, depth, normals and any per-sample outputs filtered like colour),
+with the ways to look at them and write them."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..accel.stats import RayStats
+from ..io.images import depth_visualization, encode_srgb, normal_visualization, save_image
+
+
+@dataclass
+class RenderResult:
+    """The arrays of one render, each (H, W, ...), row 0 at the top.
+
+    color: float32 (H,W,3) linear radiance; depth: float32 (H,W) ray parameter t of the closest hit (inf on a miss);
+    normals: float32 (H,W,3) unit world-space normals of the closest hit (0 on a miss). With several samples per
+    pixel, depth and normals are those of the sample nearest the pixel's centre.
+    """
+
+    color: np.ndarray
+    depth: np.ndarray
+    normals: np.ndarray
+    seconds: float = 0.0
+    stats: RayStats | None = None  # -stats counters (None unless options.stats)
+    # per-sample outputs of the integrator beyond colour (SampleResult's extra (N,k) fields, e.g. albedo), each
+    # filtered with the colour's weights into a float32 (H,W,k) image
+    aovs: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def albedo(self) -> np.ndarray | None:
+        """The filtered albedo (H,W,3), when the integrator reports one (else None)."""
+        return self.aovs.get("albedo")
+
+    def __repr__(self) -> str:
+        h, w = self.depth.shape
+        hit = int(np.isfinite(self.depth).sum())
+        return (f"<RenderResult {w}x{h}: {hit} of {w * h} pixels hit, colour up to {float(self.color.max()):.3g} "
+                f"(linear), {self.seconds:.2f} s>")
+
+    def to_srgb8(self) -> np.ndarray:
+        """The colour as an sRGB-encoded uint8 (H, W, 3) array, as `save` writes it and as image viewers and
+        `plt.imshow` expect (`color` itself is linear radiance, which looks too dark shown directly)."""
+        return encode_srgb(self.color)
+
+    def _repr_png_(self) -> bytes:
+        """PNG bytes of `to_srgb8()`: Jupyter shows a RenderResult as its image."""
+        import io
+
+        from PIL import Image
+
+        buffer = io.BytesIO()
+        Image.fromarray(self.to_srgb8(), mode="RGB").save(buffer, format="PNG")
+        return buffer.getvalue()
+
+    def save(self, path: str | os.PathLike, *, course: bool = False) -> None:
+        """Write the colour image (8-bit formats sRGB-encoded, or truncated like the course with course=True)."""
+        save_image(os.fspath(path), self.color, course=course)
+
+    def save_depth(self, path: str | os.PathLike, near: float | None = None, far: float | None = None) -> None:
+        """Write depth: raw t for .npy/.pfm, else grey with near = white and far = black (default: the hit range)."""
+        path = os.fspath(path)
+        if path.lower().endswith((".npy", ".pfm")):
+            save_image(path, self.depth)
+            return
+        finite = self.depth[np.isfinite(self.depth)]
+        if near is None:
+            near = float(finite.min()) if finite.size else 0.0
+        if far is None:
+            far = float(finite.max()) if finite.size else 1.0
+        if far == near:
+            far = near + 1.0
+        save_image(path, depth_visualization(self.depth, near, far), course=True)
+
+    def save_normals(self, path: str | os.PathLike) -> None:
+        """Write normals: raw for .npy/.pfm, else |n| per channel."""
+        path = os.fspath(path)
+        if path.lower().endswith((".npy", ".pfm")):
+            save_image(path, self.normals)
+            return
+        save_image(path, normal_visualization(self.normals), course=True)

@@ -1,0 +1,158 @@
+"""The unit of work (rendering/units.py): (tile, sample range) -> Accumulators, added up into durer.render's
+image to the bit whatever the tiles, batches and threads; and the memory check that counts what it allocates."""
+
+from __future__ import annotations
+
+import dataclasses
+import pickle
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+
+import durer
+from durer.options import RenderOptions
+from durer.rendering import integrators as I
+from durer.rendering import units as U
+from durer.rendering.renderer import BYTES_PER_PIXEL, check_size, make_options, memory_needed
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+W, H = 22, 18  # not multiples of the tile sides below: edge tiles are cut
+
+CASES = {  # integrator -> scene and options (every filter with a support radius > 0 somewhere)
+    "raycast": ("spheres.txt", dict(samples=4, sampler="jittered", seed=5)),
+    "whitted": ("spheres.txt", dict(shadows=True, bounces=3, samples=3, sampler="random")),
+    "path": ("cornell_box.xml", dict(samples=3, max_depth=4)),
+}
+FILTERS = [("box", 0.5), ("tent", 1.5), ("gaussian", 0.5)]
+
+
+def _job(name: str, filt: tuple[str, float]) -> U.Job:
+    scene, kw = CASES[name]
+    options = make_options(**kw, integrator=name, filter=filt[0], filter_radius=filt[1])
+    return U.prepare(durer.load(EXAMPLES / scene), W, H, options)
+
+
+def _image(job: U.Job) -> np.ndarray:
+    r = U.finish(job, U.run(job))
+    return np.concatenate([r.color, r.depth[..., None], r.normals], axis=-1)
+
+
+@pytest.mark.parametrize("filt", FILTERS, ids=lambda f: f[0])
+@pytest.mark.parametrize("name", list(CASES))
+def test_same_image_whatever_the_tiles_batches_and_threads(name, filt):
+    """Tiles of 4, 8 and 12 pixels (halos crossing tile borders), batches of 5 rays, one thread or all, two
+    workers: the same image to the bit, and the same as durer.render's."""
+    job = _job(name, filt)
+    scene, kw = CASES[name]
+    reference = durer.render(durer.load(EXAMPLES / scene), W, H, integrator=name, filter=filt[0],
+                             filter_radius=filt[1], **kw)
+    want = np.concatenate([reference.color, reference.depth[..., None], reference.normals], axis=-1)
+    assert np.isfinite(want[..., :3]).all() and want[..., :3].max() > 0
+    threads = numba.get_num_threads()
+    try:
+        for side in (4, 8, 12):
+            np.testing.assert_array_equal(_image(dataclasses.replace(job, tile_side=side)), want)
+        small = dataclasses.replace(job, tile_side=8, integrator=dataclasses.replace(job.integrator, batch=5, workers=2))
+        np.testing.assert_array_equal(_image(small), want)
+        numba.set_num_threads(1)
+        np.testing.assert_array_equal(_image(dataclasses.replace(job, tile_side=12)), want)
+    finally:
+        numba.set_num_threads(threads)
+
+
+def test_units_run_anywhere_and_add_up_to_the_render():
+    """A pickled job (as a Dask worker gets it) renders units whose Accumulators, merged in a shuffled tile order,
+    finish into durer.render's image; a tile's sample ranges add up too (up to the sums' rounding)."""
+    job = _job("whitted", ("tent", 1.0))
+    remote = pickle.loads(pickle.dumps(job))
+    units = [(t, range(job.options.samples)) for t in U.tiles(W, H, 8)]
+    parts = [U.render_unit(remote, t, s) for t, s in units]
+    order = np.random.default_rng(1).permutation(len(parts))
+    merged = U.merge(parts[i] for i in order)
+    got = U.finish(job, merged)
+    scene, kw = CASES["whitted"]
+    want = durer.render(durer.load(EXAMPLES / scene), W, H, integrator="whitted", filter="tent", filter_radius=1.0,
+                        **kw)
+    np.testing.assert_array_equal(got.color, want.color)
+    np.testing.assert_array_equal(got.depth, want.depth)
+    # the same tiles in two sample ranges: the sums add up to the one-range image up to rounding
+    passes = U.Accumulators.empty(job)
+    for samples in (range(0, 1), range(1, 3)):
+        for tile in U.tiles(W, H, 8):
+            passes.add(U.render_unit(job, tile, samples))
+    two = U.finish(job, passes)
+    np.testing.assert_allclose(two.color, want.color, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(two.depth, want.depth)
+
+
+def test_unit_sums_are_the_filter_weighted_samples():
+    """One 1 x 1 tile with a tent of radius 1: its sums are the weighted colours of the 3 x 3 neighbourhood's
+    samples, weights from film.filter_weight, and its depth that of its own sample nearest the centre."""
+    job = _job("raycast", ("tent", 1.0))
+    tile = U.Tile(5, 7, 1, 1)
+    acc = U.render_unit(job, tile, range(4))
+    from durer.rendering import film
+
+    halo = tile.grown(1, W, H)
+    assert halo == U.Tile(4, 6, 3, 3)
+    rows, cols = range(4, 7), range(6, 9)
+    pts = film.tile_points(job.options, W, H, rows, cols, range(4))
+    o, d, _ = job.camera.generate_rays(pts, W, H)
+    res = I.RAYCAST.trace(job.ctx, o, d, job.camera.t_min)
+    w = film.filter_weight(job.options, pts[:, 0] - 7.5, pts[:, 1] - (H - 5 - 0.5))
+    np.testing.assert_allclose(acc.weight[0, 0], w.sum(), rtol=1e-14)
+    np.testing.assert_allclose(acc.channel("color")[0, 0], (w[:, None] * res.color).sum(0), rtol=1e-12)
+    own = slice(4 * 4, 5 * 4)  # the centre pixel of the 3 x 3 halo, its 4 samples
+    d2 = (pts[own, 0] - 7.5) ** 2 + (pts[own, 1] - (H - 5.5)) ** 2
+    assert acc.depth[0, 0] == res.t[own][np.argmin(d2)]
+
+
+def test_unit_rejects_samples_outside_the_pixel_count():
+    job = _job("raycast", ("box", 0.5))
+    with pytest.raises(ValueError, match="sample range"):
+        U.render_unit(job, U.Tile(0, 0, 4, 4), range(3, 9))
+
+
+def test_aovs_are_filtered_with_the_colour_weights(monkeypatch):
+    """An integrator that reports another (N,k) per-sample field gets it filtered like colour: a field equal to
+    the colour comes out as the colour image, and RenderResult.albedo exposes one named albedo."""
+
+    from durer.rendering.raycaster import SampleResult, raycast
+
+    @dataclasses.dataclass
+    class Extra(SampleResult):
+        albedo: np.ndarray | None = None
+
+    def traced(ctx, o, d, t_min, pixel=None, sample=None):
+        r = raycast(ctx, o, d, t_min)
+        return Extra(r.color, r.t, r.normal, albedo=r.color.copy())
+
+    job = _job("raycast", ("gaussian", 0.5))
+    job = dataclasses.replace(job, integrator=dataclasses.replace(job.integrator, trace=traced))
+    r = U.finish(job, U.run(job))
+    assert r.albedo is not None and r.albedo.shape == (H, W, 3)
+    np.testing.assert_array_equal(r.albedo, r.color)
+
+
+def test_memory_is_flat_in_samples_and_grows_with_pixels():
+    """The check counts the image's sums and a bounded unit: 256 samples per pixel need what 16 need (to within
+    one unit), a 1024 x 768 x 256 path render about a quarter of a gigabyte, and a 4K Whitted render at 64 spp
+    fits; an image too large for any machine is refused."""
+    path = RenderOptions(integrator="path", samples=256)
+    need = memory_needed(1024, 768, 256, path)
+    assert need < 1.0e9
+    assert abs(memory_needed(1024, 768, 16, path) - need) < 0.1e9
+    assert memory_needed(3840, 2160, 64, RenderOptions(shadows=True, bounces=5, samples=64)) < 3e9
+    assert memory_needed(2048, 2048, 1) - memory_needed(1024, 1024, 1) == 3 * 1024 * 1024 * BYTES_PER_PIXEL
+    check_size(1024, 768, 256, path)
+    with pytest.raises(ValueError, match="would need about"):
+        check_size(10**6, 10**6, 1)
+
+
+@pytest.mark.parametrize("samples,side", [(1, 256), (16, 124), (256, 28), (100000, 4)])
+def test_plan_bounds_a_unit(samples, side):
+    got, per_pass = U.plan(samples, 1)
+    assert got == side and per_pass == min(samples, U.PASS)
+    assert got % 4 == 0
