@@ -33,9 +33,12 @@ class Hits:
 
 
 def per_ray(value, n: int) -> np.ndarray:
-    """A scalar or (n,) interval bound as a contiguous float64 (n,) array."""
+    """A scalar or (n,) interval bound as a contiguous, writable float64 (n,) array. Always writable: Numba
+    compiles (and caches) a kernel once per argument type, and a read-only array is another type."""
     a = np.asarray(value, dtype=np.float64)
-    return np.ascontiguousarray(np.broadcast_to(a, (n,)))
+    if a.shape == (n,) and a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(np.broadcast_to(a, (n,)))
 
 
 class Accelerator(Protocol):
