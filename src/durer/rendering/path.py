@@ -25,8 +25,8 @@ from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
 from .bsdfs import BSDFTable
+from .context import RenderContext, SampleResult
 from .emitters import Emitters
-from .raycaster import RenderContext, SampleResult
 from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, sobol_pair, uniform
 from .texturing import leaf_weights
 

@@ -36,20 +36,13 @@ from dataclasses import dataclass, fields
 import numba as nb
 import numpy as np
 
-from ..accel.brute import BruteForce
-from ..accel.bvh import BVHAccelerator
-from ..accel.compile import compile_scene, spheres_under_transform, with_course_edges
-from ..accel.grid import GridAccelerator
-from ..accel.hits import Accelerator
-from ..accel.stats import CountingAccelerator, RayStats
 from ..kernels.bvh.layout import TILE
 from ..options import RenderOptions
 from ..scene.cameras import image_camera
 from ..scene.graph import Scene
-from ..scene.validate import check_scene
 from . import film
+from .context import RenderContext, SampleResult, make_context
 from .integrators import Integrator, integrator_for
-from .raycaster import RenderContext, SampleResult
 from .result import RenderResult
 
 UNIT_SAMPLES = 1 << 18  # samples a unit traces (halo included) when the tile can be that small: its memory bound
@@ -134,27 +127,6 @@ class Job:
         n = self.options.samples
         passes = [range(s, min(n, s + self.pass_samples)) for s in range(0, n, self.pass_samples)]
         return [(tile, samples) for samples in passes for tile in self.tiles()]
-
-
-def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
-    """Check the scene (ValueError naming a wrong object), compile it and build its accelerator."""
-    check_scene(scene)
-    cs = compile_scene(scene)
-    # the course command: triangles accept points just outside their edges, as the course's (compile.py)
-    hit_cs = with_course_edges(cs) if options.course_edges else cs
-    # the lecture's loop over every object (--accel brute), or the bounding volume hierarchy (the default)
-    accel: Accelerator = BruteForce(hit_cs) if options.accel == "brute" else BVHAccelerator(hit_cs)
-    # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
-    # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
-    stats = RayStats(bounds=cs.bounds()) if options.stats else None
-    if options.grid is not None:
-        accel = GridAccelerator(cs, options.grid, sphere_as_box=spheres_under_transform(scene), stats=stats)
-        accel.cs = hit_cs  # cells hold the triangles' boxes as given (the course's insertion); tests use hit_cs
-    elif stats is not None:
-        # the course's -stats without a grid counts its loop over every object; measure that same loop, so the
-        # counts are real and compare with the course's (the image is the same as the BVH's, as tests check)
-        accel = CountingAccelerator(BruteForce(hit_cs), stats, sum(cs.counts))
-    return RenderContext(scene=scene, compiled=hit_cs, accel=accel, options=options)
 
 
 def job_for(ctx: RenderContext, width: int, height: int) -> Job:
