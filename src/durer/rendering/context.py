@@ -9,7 +9,7 @@ import numpy as np
 
 from ..accel.brute import BruteForce
 from ..accel.bvh import BVHAccelerator
-from ..accel.compile import CompiledScene, compile_scene, spheres_under_transform, with_course_edges
+from ..accel.compile import CompiledScene, compile_scene, with_course_edges
 from ..accel.grid import GridAccelerator
 from ..accel.hits import Accelerator
 from ..accel.stats import CountingAccelerator, RayStats
@@ -63,7 +63,7 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
     stats = RayStats(bounds=cs.bounds()) if options.stats else None
     if options.grid is not None:
-        accel = GridAccelerator(cs, options.grid, sphere_as_box=spheres_under_transform(scene), stats=stats)
+        accel = GridAccelerator(cs, options.grid, stats=stats)  # spheres under a Transform go in as boxes
         accel.cs = hit_cs  # cells hold the triangles' boxes as given (the course's insertion); tests use hit_cs
     elif stats is not None:
         # the course's -stats without a grid counts its loop over every object; measure that same loop, so the
