@@ -177,3 +177,16 @@ def test_peak_allocation_is_flat_in_samples_and_within_the_check():
     assert peaks[64] < 1.2 * peaks[16]
     assert peaks[64] < 0.25 * 256 * 256 * 64 * 200
     assert peaks[64] < memory_needed(256, 256, 64, make_options(samples=64)) - BASE_BYTES
+
+
+def test_a_path_job_pickles_with_its_tables():
+    """prepare builds the path tracer's tables once (ctx.prepared); a pickled job carries them, and its units
+    give the local units' sums to the bit."""
+    job = _job("path", ("gaussian", 0.5))
+    assert "path" in job.ctx.prepared
+    remote = pickle.loads(pickle.dumps(job))
+    assert "path" in remote.ctx.prepared
+    tile = U.Tile(4, 8, 8, 8)
+    a, b = U.render_unit(job, tile, range(1, 3)), U.render_unit(remote, tile, range(1, 3))
+    np.testing.assert_array_equal(a.sums, b.sums)
+    np.testing.assert_array_equal(a.depth, b.depth)

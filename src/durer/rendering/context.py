@@ -30,11 +30,9 @@ class RenderContext:
     options: RenderOptions = field(default_factory=RenderOptions)
     materials: MaterialTable | None = None
     textured: bool = False  # some material has an image texture: integrators compute UVs at the hits
-    # what an integrator builds once per process and reuses (the path tracer's tables and buffers); not pickled
-    cache: dict = field(default_factory=dict, repr=False, compare=False)
-
-    def __getstate__(self) -> dict:
-        return {**self.__dict__, "cache": {}}
+    # what an integrator builds once per render at prepare time (Integrator.prepare: the path tracer's BSDF and
+    # emitter tables), so no unit builds it again; it pickles with the context
+    prepared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
         if self.materials is None and self.scene.lights is not None:

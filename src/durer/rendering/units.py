@@ -131,12 +131,15 @@ class Job:
 
 
 def job_for(ctx: RenderContext, width: int, height: int) -> Job:
-    """The Job of a prepared context (the preview renders many views of one compiled scene: ctx.scene's camera is
-    the one used)."""
+    """The Job of a context (the preview renders many views of one compiled scene: ctx.scene's camera is the one
+    used): plan the units, frame the camera, choose the integrator and build its tables."""
     options = ctx.options
     side, per_pass = plan(options.samples, film.support_radius(options))
     camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
-    return Job(ctx, int(width), int(height), camera, integrator_for(options), side, per_pass)
+    integrator = integrator_for(options)
+    if integrator.prepare is not None:
+        integrator.prepare(ctx)
+    return Job(ctx, int(width), int(height), camera, integrator, side, per_pass)
 
 
 def prepare(scene: Scene, width: int, height: int, options: RenderOptions) -> Job:
