@@ -190,3 +190,33 @@ def test_a_path_job_pickles_with_its_tables():
     a, b = U.render_unit(job, tile, range(1, 3)), U.render_unit(remote, tile, range(1, 3))
     np.testing.assert_array_equal(a.sums, b.sums)
     np.testing.assert_array_equal(a.depth, b.depth)
+
+
+def test_progressive_passes_double_and_end_in_the_image():
+    """refinement(): passes of 1, 1, 2, 4, ... samples over every tile; the sums after each pass finish into an
+    image, and after the last into durer.render's up to the sums' rounding."""
+    options = make_options(samples=9, sampler="jittered", filter="tent", filter_radius=1.0)
+    job = U.prepare(durer.load(EXAMPLES / "spheres.txt"), W, H, options)
+    passes = job.refinement()
+    assert [(p[0][1].start, p[0][1].stop) for p in passes] == [(0, 1), (1, 2), (2, 4), (4, 8), (8, 9)]
+    acc = U.Accumulators.empty(job)
+    first = None
+    for units in passes:
+        for tile, samples in units:
+            acc.add(U.render_unit(job, tile, samples))
+        image = U.finish(job, acc).color
+        first = image if first is None else first
+    want = U.finish(job, U.run(job)).color
+    np.testing.assert_allclose(image, want, rtol=1e-6, atol=1e-7)
+    assert not np.array_equal(first, want)
+
+
+@pytest.mark.parametrize("samples", [2, 3, 8])
+@pytest.mark.parametrize("name", list(CASES))
+def test_any_sample_count_renders_with_every_integrator(name, samples):
+    scene, kw = CASES[name]
+    kw = {**kw, "samples": samples}
+    r = durer.render(durer.load(EXAMPLES / scene), 10, 8, integrator=name, **kw)
+    one = durer.render(durer.load(EXAMPLES / scene), 10, 8, integrator=name, **{**kw, "samples": 1})
+    assert np.isfinite(r.color).all() and r.color.max() > 0
+    assert not np.array_equal(r.color, one.color)  # more samples: another (antialiased) image

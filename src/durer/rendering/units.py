@@ -129,6 +129,17 @@ class Job:
         passes = [range(s, min(n, s + self.pass_samples)) for s in range(0, n, self.pass_samples)]
         return [(tile, samples) for samples in passes for tile in self.tiles()]
 
+    def refinement(self) -> list[list[tuple[Tile, range]]]:
+        """Passes for progressive refinement: samples [0,1), [1,2), [2,4), [4,8), ... (at most pass_samples
+        each), every pass over every tile. finish() of the sums after any pass is the image of the samples so
+        far; after the last it is durer.render's image up to the rounding of the sums' association."""
+        n, passes, start = self.options.samples, [], 0
+        while start < n:
+            stop = min(n, start + max(1, min(start, self.pass_samples)))
+            passes.append([(tile, range(start, stop)) for tile in self.tiles()])
+            start = stop
+        return passes
+
 
 def job_for(ctx: RenderContext, width: int, height: int) -> Job:
     """The Job of a context (the preview renders many views of one compiled scene: ctx.scene's camera is the one
