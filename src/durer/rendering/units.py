@@ -322,20 +322,27 @@ def run(job: Job, units: list[tuple[Tile, range]] | None = None, bar=None) -> Ac
     threads = nb.get_num_threads()
     workers = max(1, min(job.integrator.workers, threads, len(units)))
 
+    def add(unit: tuple[Tile, range], part: Accumulators) -> None:
+        acc.add(part)
+        if bar is not None:
+            bar.update(unit[0].pixels * len(unit[1]))
+
+    if workers == 1:
+        for unit in units:
+            add(unit, render_unit(job, *unit))
+        return acc
+
     def one(unit: tuple[Tile, range]) -> Accumulators:
         nb.set_num_threads(max(1, threads // workers))  # this thread's kernels (Numba's count is per thread)
         return render_unit(job, *unit)
 
-    results = map(lambda u: render_unit(job, *u), units) if workers == 1 else None
-    if results is None:
-        pool = ThreadPoolExecutor(workers, thread_name_prefix="durer-unit")
-        results = pool.map(one, units)
-    try:
-        for (tile, samples), part in zip(units, results, strict=True):
-            acc.add(part)
-            if bar is not None:
-                bar.update(tile.pixels * len(samples))
-    finally:
-        if workers > 1:
-            pool.shutdown(cancel_futures=True)
+    with ThreadPoolExecutor(workers, thread_name_prefix="durer-unit") as pool:
+        futures = [pool.submit(one, unit) for unit in units]
+        try:
+            for unit, future in zip(units, futures, strict=True):
+                add(unit, future.result())
+        except BaseException:  # an error or Ctrl-C: drop the units not started
+            for future in futures:
+                future.cancel()
+            raise
     return acc
