@@ -1,6 +1,7 @@
 """The unit of work of a render: (tile, sample range) -> Accumulators, one call that can run anywhere.
 
-    job = prepare(scene, width, height, options)           # compile, accelerator, camera, integrator: picklable
+    job = prepare(scene, width, height, options)           # compile, accelerator, camera, integrator and its
+                                                            # tables: picklable
     acc = Accumulators.empty(job)                           # the whole image's sums
     for tile, samples in job.units():                       # any order across tiles; a tile's ranges ascending
         acc.add(render_unit(job, tile, samples))           # anywhere: a thread, a process, a Dask worker
@@ -23,7 +24,8 @@ as the samples of a pass grow, to keep a unit's memory bounded).
 
 Sample ranges of one tile add (Accumulators.add) in ascending order; the canonical decomposition (Job.units)
 uses passes of PASS samples, so a render with at most PASS samples per pixel is one pass. Splitting the samples
-otherwise (progressive refinement) gives the same image up to the rounding of the sums' association.
+otherwise (progressive refinement: Job.refinement) gives the same image up to the rounding of the sums'
+association. run() is the local driver: the canonical units on threads, added in order.
 Every sample is keyed by (pixel, sample index) (film.tile_offsets, the path tracer's random streams), so a halo
 pixel's samples are the same in every unit that traces them.
 """
