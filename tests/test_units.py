@@ -220,3 +220,12 @@ def test_any_sample_count_renders_with_every_integrator(name, samples):
     one = durer.render(durer.load(EXAMPLES / scene), 10, 8, integrator=name, **{**kw, "samples": 1})
     assert np.isfinite(r.color).all() and r.color.max() > 0
     assert not np.array_equal(r.color, one.color)  # more samples: another (antialiased) image
+
+
+def test_stats_count_each_ray_once_with_a_wide_filter():
+    """-stats with a tent filter: one tile, so no halo sample is traced (and counted) twice."""
+    scene = durer.load(EXAMPLES / "spheres.txt")
+    r = durer.render(scene, 20, 16, samples=4, filter="tent", filter_radius=1.5, stats=True)
+    assert r.stats.nonshadow_rays == 20 * 16 * 4
+    counted = make_options(samples=16, filter="tent", filter_radius=1.5, stats=True)
+    assert U.plan(16, 2)[0] < 300 and U.prepare(scene, 300, 200, counted).tile_side == 300

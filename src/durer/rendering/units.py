@@ -148,6 +148,10 @@ def job_for(ctx: RenderContext, width: int, height: int) -> Job:
     used): plan the units, frame the camera, choose the integrator and build its tables."""
     options = ctx.options
     side, per_pass = plan(options.samples, film.support_radius(options))
+    if options.stats and film.support_radius(options):
+        # -stats counts the rays cast: halo samples traced again by a neighbouring tile would count twice, so a
+        # counted render with a wide filter is one tile (the course's images are small)
+        side = max(width, height)
     camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
     integrator = integrator_for(options)
     if integrator.prepare is not None:
