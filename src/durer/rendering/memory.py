@@ -25,6 +25,8 @@ def memory_needed(width: int, height: int, samples: int = 1, options: RenderOpti
     radius = support_radius(options) if options is not None else 0
     side, per_pass = plan(samples, radius)
     unit = per_pass * (side + 2 * radius) ** 2
+    if options is not None and options.stats and radius:
+        unit = per_pass * width * height  # a counted render with a wide filter is one tile (units.job_for)
     chosen = [integrator_for(options)] if options is not None else [RAYCAST, WHITTED, PATH]
     units = max(i.workers * (unit * BYTES_PER_SAMPLE + i.batch * i.bytes_per_ray) for i in chosen)
     return BASE_BYTES + width * height * BYTES_PER_PIXEL + units
