@@ -151,11 +151,16 @@ def test_memory_is_flat_in_samples_and_grows_with_pixels():
         check_size(10**6, 10**6, 1)
 
 
-@pytest.mark.parametrize("samples,side", [(1, 256), (16, 124), (256, 28), (100000, 4)])
-def test_plan_bounds_a_unit(samples, side):
-    got, per_pass = U.plan(samples, 1)
-    assert got == side and per_pass == min(samples, U.PASS)
-    assert got % 4 == 0
+@pytest.mark.parametrize("samples,radius,side,per_pass", [
+    (1, 1, 256, 1), (16, 1, 124, 16), (226, 1, 32, 226), (256, 1, 40, 128), (100000, 1, 32, 226),
+    (64, 2, 84, 32), (16, 0, 128, 16), (256, 0, 32, 256), (5000, 0, 8, 2500)])
+def test_plan_bounds_a_unit_and_its_halo(samples, radius, side, per_pass):
+    """Tiles hold UNIT_SAMPLES samples of a pass with their halo, stay 32 radii wide (at most 13% more rays),
+    and passes split the samples evenly."""
+    got, n = U.plan(samples, radius)
+    assert (got, n) == (side, per_pass) and got % 4 == 0
+    assert n * (got + 2 * radius) ** 2 <= U.UNIT_SAMPLES
+    assert not radius or got >= 32 * radius
 
 
 def test_peak_allocation_is_flat_in_samples_and_within_the_check():

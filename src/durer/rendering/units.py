@@ -19,11 +19,12 @@ the same to the bit whatever the tile size, the batch size and the thread count,
 all the samples at once. Splatting a tile's samples into its neighbours' pixels would add partial sums of
 different tiles, which depends on the tiling (float addition is not associative). The price is tracing each
 halo sample once more per tile that needs it: nothing for the default box filter (support radius 0); for a
-radius-1 tent or gaussian on the tiles plan() picks, 3% more rays at 16 spp, 15% at 256 spp (the tile shrinks
-as the samples of a pass grow, to keep a unit's memory bounded).
+radius-1 tent or gaussian on the tiles plan() picks, 3% more rays at 16 spp and at most 13% at any count (a
+pass holds few enough samples that the tile stays 32 radii wide within a unit's memory bound).
 
 Sample ranges of one tile add (Accumulators.add) in ascending order; the canonical decomposition (Job.units)
-uses passes of PASS samples, so a render with at most PASS samples per pixel is one pass. Splitting the samples
+uses the passes plan() gives for the sample count and filter: one pass, film.reconstruct's bits, up to 4096
+samples with the box filter, 226 with a radius-1 tent or gaussian, 56 with radius 2. Splitting the samples
 otherwise (progressive refinement: Job.refinement) gives the same image up to the rounding of the sums'
 association. run() is the local driver: the canonical units on threads, added in order.
 Every sample is keyed by (pixel, sample index) (film.tile_offsets, the path tracer's random streams), so a halo
@@ -51,6 +52,7 @@ from .result import RenderResult
 UNIT_SAMPLES = 1 << 18  # samples a unit traces (halo included) when the tile can be that small: its memory bound
 PASS = 4096             # samples per pixel of one pass of the canonical decomposition
 MAX_TILE = 256          # tile side at most: enough units for two workers and a live progress bar
+HALO_SIDES = 32         # a tile is at least this many filter radii wide: ((32 + 2) / 32)^2 = 1.13x the rays at most
 BASE = ("color", "t", "normal")  # SampleResult's own fields; any other non-None (N,k) field is an AOV
 
 
@@ -86,10 +88,15 @@ class Tile:
 
 
 def plan(samples: int, radius: int) -> tuple[int, int]:
-    """(tile side, samples per pass): passes of at most PASS samples, and the largest tile side (a multiple of 4,
-    so 1-spp batches are whole 4 x 4 packets; at most MAX_TILE) whose pixels and halo hold UNIT_SAMPLES samples
-    of a pass. Only memory and speed depend on it, never the image."""
-    per_pass = min(samples, PASS)
+    """(tile side, samples per pass). The tile side (a multiple of 4, so 1-spp batches are whole 4 x 4 packets; at
+    most MAX_TILE) is the largest whose pixels and halo hold UNIT_SAMPLES samples of a pass: only memory and
+    speed depend on it, never the image. Passes hold at most PASS samples, and with a filter halo few enough
+    that the tile stays HALO_SIDES halo widths wide (its halo then adds at most 13% rays), split evenly; the
+    passes depend on the sample count and filter alone, so the image does too (one pass up to 226 samples for a
+    radius-1 filter, 56 for radius 2, 4096 for the box)."""
+    limit = PASS if not radius else max(1, UNIT_SAMPLES // ((HALO_SIDES + 2) * radius) ** 2)
+    passes = -(-samples // min(samples, PASS, limit))
+    per_pass = -(-samples // passes)
     side = (math.isqrt(UNIT_SAMPLES // per_pass) - 2 * radius) // TILE * TILE
     return max(TILE, min(MAX_TILE, side)), per_pass
 
