@@ -234,3 +234,15 @@ def test_stats_count_each_ray_once_with_a_wide_filter():
     assert r.stats.nonshadow_rays == 20 * 16 * 4
     counted = make_options(samples=16, filter="tent", filter_radius=1.5, stats=True)
     assert U.plan(16, 2)[0] < 300 and U.prepare(scene, 300, 200, counted).tile_side == 300
+
+
+def test_finish_and_merge_refuse_what_is_not_an_image():
+    job = _job("raycast", ("box", 0.5))
+    with pytest.raises(ValueError, match="at least one unit"):
+        U.finish(job, U.Accumulators.empty(job))
+    with pytest.raises(ValueError, match="whole image"):
+        U.finish(job, U.render_unit(job, U.Tile(0, 0, 4, 4), range(2)))
+    with pytest.raises(ValueError, match="at least one"):
+        U.merge([])
+    with pytest.raises(ValueError, match="does not lie inside"):
+        U.render_unit(job, U.Tile(0, 0, 4, 4), range(2)).add(U.render_unit(job, U.Tile(2, 2, 4, 4), range(2)))

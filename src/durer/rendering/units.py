@@ -228,6 +228,8 @@ class Accumulators:
 def merge(parts) -> Accumulators:
     """Add units' Accumulators in the order given (a tile's sample ranges ascending) into their union's sums."""
     parts = list(parts)
+    if not parts:
+        raise ValueError("merge needs at least one unit's Accumulators")
     r0, c0 = min(p.tile.row for p in parts), min(p.tile.col for p in parts)
     r1 = max(p.tile.row + p.tile.rows for p in parts)
     c1 = max(p.tile.col + p.tile.cols for p in parts)
@@ -314,6 +316,8 @@ def finish(job: Job, acc: Accumulators) -> RenderResult:
     weighs), depth and normals of the centre samples, all float32 (H,W,...)."""
     if acc.tile != job.tile:
         raise ValueError(f"finish needs the sums of the whole image {job.tile}, got {acc.tile}")
+    if not acc.channels:
+        raise ValueError("finish needs the sums of at least one unit (none were added)")
     w = acc.weight[..., None]
     pixels = np.divide(acc.sums, w, out=np.zeros_like(acc.sums), where=w > 0)
     aovs, lo = {}, 3
