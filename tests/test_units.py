@@ -246,3 +246,19 @@ def test_finish_and_merge_refuse_what_is_not_an_image():
         U.merge([])
     with pytest.raises(ValueError, match="does not lie inside"):
         U.render_unit(job, U.Tile(0, 0, 4, 4), range(2)).add(U.render_unit(job, U.Tile(2, 2, 4, 4), range(2)))
+
+
+def test_units_without_an_aov_add_to_units_with_it():
+    """A unit none of whose rays reached the integrator reports colour only; adding it to sums that carry an AOV
+    (and the other way round) keeps every channel, zero where no sample had it."""
+    tile_a, tile_b = U.Tile(0, 0, 2, 2), U.Tile(0, 2, 2, 2)
+    plain = U.Accumulators.zeros(tile_b)
+    plain.sums[:] = 1.0
+    rich = U.Accumulators.zeros(tile_a, (("color", 3), ("albedo", 3)))
+    rich.sums[:] = 2.0
+    for first, second in ((plain, rich), (rich, plain)):
+        acc = U.merge([first, second])
+        assert acc.channels == (("color", 3), ("albedo", 3))
+        np.testing.assert_array_equal(acc.channel("color")[:, 2:], 1.0)
+        np.testing.assert_array_equal(acc.channel("albedo")[:, 2:], 0.0)
+        np.testing.assert_array_equal(acc.channel("albedo")[:, :2], 2.0)

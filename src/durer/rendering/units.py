@@ -210,19 +210,35 @@ class Accumulators:
         """Add a unit's sums (its tile inside this one) in place and return self. Tiles are disjoint, so their
         order does not matter; a tile's sample ranges must come in ascending order for a fixed result (and then
         the depth and normal of the nearest sample, the earlier one on a tie, are the same as in one unit)."""
-        if not self.channels:  # empty(): take the unit's channels
-            self.channels = other.channels
-            self.sums = np.zeros(self.weight.shape + (other.sums.shape[-1],))
-        if other.channels != self.channels:
-            raise ValueError(f"cannot add sums of channels {other.channels} to sums of {self.channels}")
         at = other.tile.inside(self.tile)
-        self.sums[at] += other.sums
+        if other.channels != self.channels:
+            self._widen(other.channels)
+        if other.channels == self.channels:
+            self.sums[at] += other.sums
+        else:  # a unit without some AOV (none of its rays reached the integrator, e.g. outside a fisheye's circle)
+            lo = 0
+            for name, k in other.channels:
+                self.channel(name)[at] += other.sums[..., lo:lo + k]
+                lo += k
         self.weight[at] += other.weight
         nearer = other.centre < self.centre[at]
         np.copyto(self.depth[at], other.depth, where=nearer)
         np.copyto(self.normal[at], other.normal, where=nearer[..., None])
         np.copyto(self.centre[at], other.centre, where=nearer)
         return self
+
+
+    def _widen(self, channels: tuple[tuple[str, int], ...]) -> None:
+        """Make room for the channels this sum has not seen yet (zero so far: no sample had them)."""
+        have = dict(self.channels)
+        for name, k in channels:
+            if have.get(name, k) != k:
+                raise ValueError(f"channel {name!r} has {k} components here and {have[name]} before")
+        new = tuple((name, k) for name, k in channels if name not in have)
+        if new:
+            extra = np.zeros(self.weight.shape + (sum(k for _, k in new),))
+            self.sums = np.concatenate([self.sums, extra], axis=-1)
+            self.channels = self.channels + new
 
 
 def merge(parts) -> Accumulators:
