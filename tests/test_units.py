@@ -262,3 +262,18 @@ def test_units_without_an_aov_add_to_units_with_it():
         np.testing.assert_array_equal(acc.channel("color")[:, 2:], 1.0)
         np.testing.assert_array_equal(acc.channel("albedo")[:, 2:], 0.0)
         np.testing.assert_array_equal(acc.channel("albedo")[:, :2], 2.0)
+
+
+def test_fisheye_tiles_with_rays_outside_the_circle():
+    """Film points outside a fisheye's image circle have no ray (background, no hit): tiles of every size, some
+    wholly outside the circle, give durer.render's image."""
+    scene = durer.load(EXAMPLES / "fisheye.txt")
+    options = make_options(samples=4, sampler="random", filter="tent", filter_radius=1.0, shadows=True)
+    job = U.prepare(scene, 24, 16, options)
+    want = durer.render(scene, 24, 16, options=make_options(samples=4, sampler="random", filter="tent",
+                                                            filter_radius=1.0, shadows=True))
+    assert np.isinf(want.depth).any() and np.isfinite(want.depth).any()
+    for side in (4, 12):
+        got = U.finish(job, U.run(dataclasses.replace(job, tile_side=side)))
+        np.testing.assert_array_equal(got.color, want.color)
+        np.testing.assert_array_equal(got.depth, want.depth)
