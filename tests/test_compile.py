@@ -162,3 +162,33 @@ def test_a_smooth_normal_facing_away_is_bent_towards_the_viewer():
     hits = Hits(np.array([1.0]), np.array([TRIANGLE], np.int8), np.array([0], np.int32), np.zeros(1), np.zeros(1))
     n = smooth_normals(cs, hits, np.zeros((1, 3)), d, np.array([[0.0, 0, 1]]))
     assert d[0] @ n[0] < 0 and np.linalg.norm(n[0]) == pytest.approx(1.0)
+
+
+def test_compile_walks_the_scene_tree_once_and_nothing_after_it_does():
+    """Each Group's children are read once, by compile_scene; the accelerators and the bounds then read only the
+    CompiledScene (sphere boxes, which spheres are transformed, placed triangles)."""
+    from durer.accel.bvh import BVHAccelerator
+    from durer.accel.grid import GridAccelerator
+
+    reads: list[int] = []
+
+    class Counting(Group):
+        def __getattribute__(self, name):
+            if name == "objects":
+                reads.append(id(self))
+            return super().__getattribute__(name)
+
+    mesh = TriangleMesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]]), np.array([[0, 1, 2]]))
+    inner = Counting([Sphere((0, 0, 0), 0.5), mesh])
+    scene = Scene(camera=CAM, group=Counting([Transform(tf.translate((2, 0, 0)), inner), Sphere((0, 0, 0), 1.0),
+                                              Transform(tf.scale(2), mesh)]))
+    cs = compile_scene(scene)
+    assert sorted(reads) == sorted([id(scene.group), id(inner)])
+    reads.clear()
+    BVHAccelerator(cs)
+    GridAccelerator(cs, (4, 4, 4))
+    lo, hi = cs.bounds()
+    assert reads == []
+    assert cs.sphere_transformed.tolist() == [True, False]
+    np.testing.assert_allclose(cs.sphere_lo, [[1.5, -0.5, -0.5], [-1, -1, -1]])
+    np.testing.assert_allclose((lo, hi), ([-1, -1, -1], [3, 2, 1]))

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from durer import Group, Scene, Sphere, Transform, Triangle
 from durer.accel.brute import BruteForce
-from durer.accel.compile import CompiledScene, compile_scene, spheres_under_transform
+from durer.accel.compile import CompiledScene, compile_scene
 from durer.accel.grid import GridAccelerator
 from durer.accel.stats import CountingAccelerator, RayStats
 from durer.options import RenderOptions
@@ -209,22 +209,20 @@ def test_transformed_sphere_fills_its_box():
     Object3D::insertIntoGrid fallback; the same sphere without one leaves the corners out."""
     plain = Scene(camera=CAM, group=Group([Sphere((0, 0, 0), 1.0)]))
     wrapped = Scene(camera=CAM, group=Group([Transform(np.eye(4), Sphere((0, 0, 0), 1.0))]))
-    assert spheres_under_transform(wrapped).tolist() == [True]
-    assert GridAccelerator(compile_scene(plain), (5, 5, 5), sphere_as_box=spheres_under_transform(plain)) \
-        .cell_counts.sum() == 117
-    assert GridAccelerator(compile_scene(wrapped), (5, 5, 5), sphere_as_box=spheres_under_transform(wrapped)) \
-        .cell_counts.sum() == 125
+    assert compile_scene(wrapped).sphere_transformed.tolist() == [True]
+    assert GridAccelerator(compile_scene(plain), (5, 5, 5)).cell_counts.sum() == 117
+    assert GridAccelerator(compile_scene(wrapped), (5, 5, 5)).cell_counts.sum() == 125
     ellipsoid = compiled(ellipsoids=[(tf.scale((2.0, 1.0, 1.0)), 1.0)])
     g = GridAccelerator(ellipsoid, (4, 2, 2), sphere_as_box=np.array([False]))  # moved spheres always boxed
     assert np.allclose(g.lo, (-2, -1, -1)) and np.allclose(g.hi, (2, 1, 1)) and g.cell_counts.min() == 1
 
 
-def test_spheres_under_transform_follows_compile_order():
+def test_sphere_transformed_follows_compile_order():
     scene = Scene(camera=CAM, group=Group([
         Sphere((0, 0, 0), 1.0), Transform(tf.translate((1, 0, 0)), Group([Sphere((0, 0, 0), 1.0)])),
         Triangle((0, 0, 0), (1, 0, 0), (0, 1, 0)), Sphere((3, 0, 0), 1.0)]))
-    assert spheres_under_transform(scene).tolist() == [False, True, False]
-    assert len(compile_scene(scene).sphere_radius) == 3
+    cs = compile_scene(scene)  # one walk of the tree gives the spheres and which of them are transformed
+    assert cs.sphere_transformed.tolist() == [False, True, False] and len(cs.sphere_radius) == 3
 
 
 def test_triangle_on_a_cell_boundary_goes_into_both_cells():

@@ -151,8 +151,129 @@ def test_memory_is_flat_in_samples_and_grows_with_pixels():
         check_size(10**6, 10**6, 1)
 
 
-@pytest.mark.parametrize("samples,side", [(1, 256), (16, 124), (256, 28), (100000, 4)])
-def test_plan_bounds_a_unit(samples, side):
-    got, per_pass = U.plan(samples, 1)
-    assert got == side and per_pass == min(samples, U.PASS)
-    assert got % 4 == 0
+@pytest.mark.parametrize("samples,radius,side,per_pass", [
+    (1, 1, 256, 1), (16, 1, 124, 16), (226, 1, 32, 226), (256, 1, 40, 128), (100000, 1, 32, 226),
+    (64, 2, 84, 32), (16, 0, 128, 16), (256, 0, 32, 256), (5000, 0, 8, 2500)])
+def test_plan_bounds_a_unit_and_its_halo(samples, radius, side, per_pass):
+    """Tiles hold UNIT_SAMPLES samples of a pass with their halo, stay 32 radii wide (at most 13% more rays),
+    and passes split the samples evenly."""
+    got, n = U.plan(samples, radius)
+    assert (got, n) == (side, per_pass) and got % 4 == 0
+    assert n * (got + 2 * radius) ** 2 <= U.UNIT_SAMPLES
+    assert not radius or got >= 32 * radius
+
+
+def test_peak_allocation_is_flat_in_samples_and_within_the_check():
+    """Measured with tracemalloc (NumPy reports its buffers to it): 64 samples per pixel allocate at their peak
+    what 16 do (the units are at their size bound either way), far below the 64 x 200 bytes a pixel the whole
+    film of samples used to take, and within what memory_needed counts besides the interpreter."""
+    import tracemalloc
+
+    from durer.rendering.memory import BASE_BYTES
+
+    scene = durer.load(EXAMPLES / "spheres.txt")
+    durer.render(scene, 16, 16, samples=4)  # compile and warm up outside the measurement
+    peaks = {}
+    for n in (16, 64):
+        tracemalloc.start()
+        durer.render(scene, 256, 256, samples=n)
+        peaks[n] = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    assert peaks[64] < 1.2 * peaks[16]
+    assert peaks[64] < 0.25 * 256 * 256 * 64 * 200
+    assert peaks[64] < memory_needed(256, 256, 64, make_options(samples=64)) - BASE_BYTES
+
+
+def test_a_path_job_pickles_with_its_tables():
+    """prepare builds the path tracer's tables once (ctx.prepared); a pickled job carries them, and its units
+    give the local units' sums to the bit."""
+    job = _job("path", ("gaussian", 0.5))
+    assert "path" in job.ctx.prepared
+    remote = pickle.loads(pickle.dumps(job))
+    assert "path" in remote.ctx.prepared
+    tile = U.Tile(4, 8, 8, 8)
+    a, b = U.render_unit(job, tile, range(1, 3)), U.render_unit(remote, tile, range(1, 3))
+    np.testing.assert_array_equal(a.sums, b.sums)
+    np.testing.assert_array_equal(a.depth, b.depth)
+
+
+def test_progressive_passes_double_and_end_in_the_image():
+    """refinement(): passes of 1, 1, 2, 4, ... samples over every tile; the sums after each pass finish into an
+    image, and after the last into durer.render's up to the sums' rounding."""
+    options = make_options(samples=9, sampler="jittered", filter="tent", filter_radius=1.0)
+    job = U.prepare(durer.load(EXAMPLES / "spheres.txt"), W, H, options)
+    passes = job.refinement()
+    assert [(p[0][1].start, p[0][1].stop) for p in passes] == [(0, 1), (1, 2), (2, 4), (4, 8), (8, 9)]
+    acc = U.Accumulators.empty(job)
+    first = None
+    for units in passes:
+        for tile, samples in units:
+            acc.add(U.render_unit(job, tile, samples))
+        image = U.finish(job, acc).color
+        first = image if first is None else first
+    want = U.finish(job, U.run(job)).color
+    np.testing.assert_allclose(image, want, rtol=1e-6, atol=1e-7)
+    assert not np.array_equal(first, want)
+
+
+@pytest.mark.parametrize("samples", [2, 3, 8])
+@pytest.mark.parametrize("name", list(CASES))
+def test_any_sample_count_renders_with_every_integrator(name, samples):
+    scene, kw = CASES[name]
+    kw = {**kw, "samples": samples}
+    r = durer.render(durer.load(EXAMPLES / scene), 10, 8, integrator=name, **kw)
+    one = durer.render(durer.load(EXAMPLES / scene), 10, 8, integrator=name, **{**kw, "samples": 1})
+    assert np.isfinite(r.color).all() and r.color.max() > 0
+    assert not np.array_equal(r.color, one.color)  # more samples: another (antialiased) image
+
+
+def test_stats_count_each_ray_once_with_a_wide_filter():
+    """-stats with a tent filter: one tile, so no halo sample is traced (and counted) twice."""
+    scene = durer.load(EXAMPLES / "spheres.txt")
+    r = durer.render(scene, 20, 16, samples=4, filter="tent", filter_radius=1.5, stats=True)
+    assert r.stats.nonshadow_rays == 20 * 16 * 4
+    counted = make_options(samples=16, filter="tent", filter_radius=1.5, stats=True)
+    assert U.plan(16, 2)[0] < 300 and U.prepare(scene, 300, 200, counted).tile_side == 300
+
+
+def test_finish_and_merge_refuse_what_is_not_an_image():
+    job = _job("raycast", ("box", 0.5))
+    with pytest.raises(ValueError, match="at least one unit"):
+        U.finish(job, U.Accumulators.empty(job))
+    with pytest.raises(ValueError, match="whole image"):
+        U.finish(job, U.render_unit(job, U.Tile(0, 0, 4, 4), range(2)))
+    with pytest.raises(ValueError, match="at least one"):
+        U.merge([])
+    with pytest.raises(ValueError, match="does not lie inside"):
+        U.render_unit(job, U.Tile(0, 0, 4, 4), range(2)).add(U.render_unit(job, U.Tile(2, 2, 4, 4), range(2)))
+
+
+def test_units_without_an_aov_add_to_units_with_it():
+    """A unit none of whose rays reached the integrator reports colour only; adding it to sums that carry an AOV
+    (and the other way round) keeps every channel, zero where no sample had it."""
+    tile_a, tile_b = U.Tile(0, 0, 2, 2), U.Tile(0, 2, 2, 2)
+    plain = U.Accumulators.zeros(tile_b)
+    plain.sums[:] = 1.0
+    rich = U.Accumulators.zeros(tile_a, (("color", 3), ("albedo", 3)))
+    rich.sums[:] = 2.0
+    for first, second in ((plain, rich), (rich, plain)):
+        acc = U.merge([first, second])
+        assert acc.channels == (("color", 3), ("albedo", 3))
+        np.testing.assert_array_equal(acc.channel("color")[:, 2:], 1.0)
+        np.testing.assert_array_equal(acc.channel("albedo")[:, 2:], 0.0)
+        np.testing.assert_array_equal(acc.channel("albedo")[:, :2], 2.0)
+
+
+def test_fisheye_tiles_with_rays_outside_the_circle():
+    """Film points outside a fisheye's image circle have no ray (background, no hit): tiles of every size, some
+    wholly outside the circle, give durer.render's image."""
+    scene = durer.load(EXAMPLES / "fisheye.txt")
+    options = make_options(samples=4, sampler="random", filter="tent", filter_radius=1.0, shadows=True)
+    job = U.prepare(scene, 24, 16, options)
+    want = durer.render(scene, 24, 16, options=make_options(samples=4, sampler="random", filter="tent",
+                                                            filter_radius=1.0, shadows=True))
+    assert np.isinf(want.depth).any() and np.isfinite(want.depth).any()
+    for side in (4, 12):
+        got = U.finish(job, U.run(dataclasses.replace(job, tile_side=side)))
+        np.testing.assert_array_equal(got.color, want.color)
+        np.testing.assert_array_equal(got.depth, want.depth)

@@ -27,7 +27,7 @@ from ..kernels.bvh.layout import MAX_LEAF, TILE, leaf_codes, leaf_slots, stack_s
 from ..kernels.bvh.trace import any_hit_bvh, closest_hit_bvh
 from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.threads import run_blocks
-from .compile import CompiledScene, sphere_bounds
+from .compile import CompiledScene
 from .hits import Hits, per_ray
 
 INVALID_ID = -1
@@ -389,8 +389,7 @@ class BVHAccelerator:
     def __init__(self, cs: CompiledScene, max_leaf: int = MAX_LEAF):
         self.cs = cs
         start = time.perf_counter()
-        slo, shi = sphere_bounds(cs)
-        self.tree = build_tree(cs.triangles, slo, shi, max_leaf)
+        self.tree = build_tree(cs.triangles, cs.sphere_lo, cs.sphere_hi, max_leaf)
         self.instances = None
         if len(cs.instance_mesh):
             # meshes placed more than once: each stored once, traced two-level; the flat tree holds the rest

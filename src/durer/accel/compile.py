@@ -55,6 +55,18 @@ class CompiledScene:
     # vertex colours (F, 3, 3) / (Fi, 3, 3), linear RGB (ones for meshes without colours)
     triangle_colors: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     mesh_colors: tuple = ()
+    # What later stages read besides the arrays above, so none of them returns to the scene tree: (S,) does
+    # sphere k sit below a Transform node (the course's grid boxes those; all False for a CompiledScene built by
+    # hand), and the spheres' exact world boxes (S, 3) (computed from the arrays when not given).
+    sphere_transformed: np.ndarray | None = None
+    sphere_lo: np.ndarray | None = None
+    sphere_hi: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.sphere_transformed is None:
+            self.sphere_transformed = np.zeros(len(self.sphere_radius), dtype=bool)
+        if self.sphere_lo is None or self.sphere_hi is None:
+            self.sphere_lo, self.sphere_hi = sphere_bounds(self)
 
     @property
     def has_uv(self) -> bool:
@@ -214,23 +226,31 @@ class CompiledScene:
                 + self.instance_mesh.nbytes + self.instance_matrix.nbytes + self.instance_material.nbytes)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """World bounding box of the bounded primitives (triangles and spheres); planes are unbounded."""
-        lo, hi = [], []
-        if len(self.triangles):
-            lo.append(self.triangles.min(axis=(0, 1)))
-            hi.append(self.triangles.max(axis=(0, 1)))
-        for k in range(len(self.instance_mesh)):
-            if len(self.mesh_triangles[int(self.instance_mesh[k])]):
-                t = self.instance_triangles(k)
-                lo.append(t.min(axis=(0, 1)))
-                hi.append(t.max(axis=(0, 1)))
-        if len(self.sphere_radius):
-            slo, shi = sphere_bounds(self)
-            lo.append(slo.min(axis=0))
-            hi.append(shi.max(axis=0))
-        if not lo:
-            return np.zeros(3), np.zeros(3)
-        return np.min(lo, axis=0), np.max(hi, axis=0)
+        """World bounding box of the bounded primitives (triangles, placed instances, spheres); planes are
+        unbounded. (0, 0) for a scene of planes only. Made once, on first use (instances are placed for it)."""
+        return self._bounds
+
+    @cached_property
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        boxes = [_box(self.triangles)] + [_box(self.instance_triangles(k)) for k in range(len(self.instance_mesh))]
+        return _union(boxes + [(self.sphere_lo, self.sphere_hi)])
+
+
+def _box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The box (lo, hi) of points (..., 3), or None when there are none."""
+    if not points.size:
+        return None
+    flat = points.reshape(-1, 3)
+    return flat.min(axis=0), flat.max(axis=0)
+
+
+def _union(boxes) -> tuple[np.ndarray, np.ndarray]:
+    """The box around boxes (lo, hi), each (3,) or (K, 3); None entries and empty ones are skipped."""
+    los = [np.asarray(lo).reshape(-1, 3) for b in boxes if b is not None for lo in b[:1] if np.size(lo)]
+    his = [np.asarray(hi).reshape(-1, 3) for b in boxes if b is not None for hi in b[1:] if np.size(hi)]
+    if not los:
+        return np.zeros(3), np.zeros(3)
+    return np.concatenate(los).min(axis=0), np.concatenate(his).max(axis=0)
 
 
 def sphere_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
@@ -301,32 +321,44 @@ def _mesh_key(mesh: TriangleMesh):
             hash(mesh.vertices.tobytes()), hash(mesh.faces.tobytes()))
 
 
+def _leaves(group: Group) -> list[tuple[object, np.ndarray, bool]]:
+    """The one walk of the scene tree: every shape with its object-to-world matrix and whether a Transform node
+    is above it, in the tree's order (depth first, children in order)."""
+    out: list[tuple[object, np.ndarray, bool]] = []
+    stack: list[tuple[object, np.ndarray, bool]] = [(group, np.eye(4), False)]
+    while stack:
+        obj, m, moved = stack.pop()
+        if isinstance(obj, Group):
+            stack.extend((child, m, moved) for child in reversed(obj.objects))
+        elif isinstance(obj, Transform):
+            stack.append((obj.object, m @ obj.matrix, True))
+        elif isinstance(obj, (Sphere, Plane, Triangle, TriangleMesh)):
+            out.append((obj, m, moved))
+        else:
+            raise TypeError(f"not a scene object: {type(obj).__name__}")
+    return out
+
+
 def compile_scene(scene: Scene) -> CompiledScene:
-    """Flatten the scene's object tree into arrays, applying every transform. A mesh placed more than once (the
-    same object, or the same file with identical arrays) is stored once, as instances."""
+    """Flatten the scene's object tree into arrays, applying every transform, in one walk of the tree (_leaves):
+    everything later stages read comes from here. A mesh placed more than once (the same object, or the same
+    file with identical arrays) is stored once, as instances."""
+    leaves = _leaves(scene.group)
+    meshes_used = [obj for obj, _, _ in leaves if isinstance(obj, TriangleMesh)]
+    uses: dict = {}
+    for mesh in meshes_used:
+        key = _mesh_key(mesh)
+        uses[key] = uses.get(key, 0) + 1
+    # per-corner arrays only when some mesh has them (UVs cost 48 bytes a triangle, normals and colours 72)
+    any_uv, any_normals, any_colors = (any(getattr(mesh, name) is not None for mesh in meshes_used)
+                                       for name in ("uvs", "normals", "colors"))
     tris: list[np.ndarray] = []
     tri_mat: list[np.ndarray] = []
     sph: list[tuple] = []
     planes: list[tuple] = []
-    uses: dict = {}
     uvs: list[np.ndarray] = []  # per entry of tris: (n, 3, 2) corner UVs (zeros without)
     nrm: list[np.ndarray] = []  # per entry of tris: (n, 3, 3) world corner normals (zeros without)
     col: list[np.ndarray] = []  # per entry of tris: (n, 3, 3) corner colours (ones without)
-
-    def count(obj) -> None:
-        if isinstance(obj, Group):
-            for child in obj.objects:
-                count(child)
-        elif isinstance(obj, Transform):
-            count(obj.object)
-        elif isinstance(obj, TriangleMesh):
-            key = _mesh_key(obj)
-            uses[key] = uses.get(key, 0) + 1
-
-    count(scene.group)
-    any_uv = _any(scene.group, "uvs")  # UV arrays only when some mesh has UVs (they cost 48 bytes a triangle)
-    any_normals = _any(scene.group, "normals")  # normals only when some mesh has them (72 bytes a triangle)
-    any_colors = _any(scene.group, "colors")
     mesh_index: dict = {}
     meshes: list[np.ndarray] = []
     mesh_uvs: list[np.ndarray] = []
@@ -334,15 +366,10 @@ def compile_scene(scene: Scene) -> CompiledScene:
     mesh_col: list[np.ndarray] = []
     instances: list[tuple] = []
 
-    def visit(obj, m: np.ndarray) -> None:
-        if isinstance(obj, Group):
-            for child in obj.objects:
-                visit(child, m)
-        elif isinstance(obj, Transform):
-            visit(obj.object, m @ obj.matrix)
-        elif isinstance(obj, Sphere):
+    for obj, m, moved in leaves:
+        if isinstance(obj, Sphere):
             inv = np.linalg.inv(m)
-            sph.append((obj.center, obj.radius, inv[:3, :], inv[:3, :3].T, obj.material))
+            sph.append((obj.center, obj.radius, inv[:3, :], inv[:3, :3].T, obj.material, moved))
         elif isinstance(obj, Plane):
             n = obj.normal / np.linalg.norm(obj.normal)
             d = obj.offset / np.linalg.norm(obj.normal)
@@ -363,7 +390,7 @@ def compile_scene(scene: Scene) -> CompiledScene:
                 if any_colors:
                     mesh_col.append(_corner_values(obj, "colors", 3, fill=1.0))
             instances.append((mesh_index[key], m, obj.material))
-        elif isinstance(obj, (Triangle, TriangleMesh)):
+        else:  # a Triangle, or a mesh placed once
             if isinstance(obj, Triangle):
                 v = np.array([[obj.vertex0, obj.vertex1, obj.vertex2]])
             else:
@@ -382,10 +409,7 @@ def compile_scene(scene: Scene) -> CompiledScene:
             v = _place(v, m)  # a mirror flips the winding; _place keeps the inverse-transpose normal
             tris.append(v)
             tri_mat.append(np.full(len(v), obj.material, dtype=np.int32))
-        else:
-            raise TypeError(f"not a scene object: {type(obj).__name__}")
 
-    visit(scene.group, np.eye(4))
     return CompiledScene(
         triangles=np.ascontiguousarray(np.concatenate(tris) if tris else np.zeros((0, 3, 3))),
         triangle_material=np.concatenate(tri_mat) if tri_mat else np.zeros(0, np.int32),
@@ -407,6 +431,7 @@ def compile_scene(scene: Scene) -> CompiledScene:
         mesh_normals=tuple(mesh_nrm) if any_normals else (),
         triangle_colors=np.concatenate(col) if any_colors and col else np.zeros((0, 3, 3)),
         mesh_colors=tuple(mesh_col) if any_colors else (),
+        sphere_transformed=np.array([s[5] for s in sph], dtype=bool),
     )
 
 
@@ -416,29 +441,3 @@ def _corner_values(mesh: TriangleMesh, name: str, k: int, fill: float = 0.0) -> 
     if values is None:
         return np.full((len(mesh.faces), 3, k), fill)
     return np.ascontiguousarray(values[mesh.faces])
-
-
-def _any(obj, name: str) -> bool:
-    """Does any mesh below `obj` carry per-vertex `name` (uvs, normals)?"""
-    if isinstance(obj, Group):
-        return any(_any(child, name) for child in obj.objects)
-    if isinstance(obj, Transform):
-        return _any(obj.object, name)
-    return isinstance(obj, TriangleMesh) and getattr(obj, name) is not None
-
-
-def spheres_under_transform(scene: Scene) -> np.ndarray:
-    """(S,) bool, in CompiledScene order: is sphere k below some Transform node of the scene tree?"""
-    flags: list[bool] = []
-
-    def visit(obj, transformed: bool) -> None:
-        if isinstance(obj, Group):
-            for child in obj.objects:
-                visit(child, transformed)
-        elif isinstance(obj, Transform):
-            visit(obj.object, True)
-        elif isinstance(obj, Sphere):
-            flags.append(transformed)
-
-    visit(scene.group, False)
-    return np.array(flags, dtype=bool)

@@ -45,8 +45,9 @@ def _sphere_boxes(cs: CompiledScene, as_box: np.ndarray) -> tuple[np.ndarray, np
 class GridAccelerator:
     """A uniform grid of nx x ny x nz cells over the scene's bounded primitives, walked with 3D-DDA.
 
-    `sphere_as_box` (S,) says which spheres go in by their box (the course: those under a Transform); the
-    spheres whose world-to-object matrix is not the identity always do, and by default only they.
+    `sphere_as_box` (S,) says which spheres go in by their box (default: those under a Transform in the scene
+    tree, CompiledScene.sphere_transformed, as the course does); the spheres whose world-to-object matrix is not
+    the identity always do.
     `exact_triangles` keeps a triangle only in the cells its plane really crosses (separating-axis test)
     instead of all cells of its box: fewer tests, but not what the course's images show. Pass a RayStats as
     `stats` to count rays, tests and cells.
@@ -66,7 +67,7 @@ class GridAccelerator:
         identity[:, :3] = np.eye(3)
         moved = ~np.all(cs.sphere_world_to_object == identity, axis=(1, 2))  # rasterising needs world = object
         if sphere_as_box is None:
-            sphere_as_box = moved
+            sphere_as_box = cs.sphere_transformed
         self.sphere_as_box = np.asarray(sphere_as_box, dtype=bool).reshape(len(cs.sphere_radius)) | moved
         sph_lo, sph_hi = _sphere_boxes(cs, self.sphere_as_box)
         self.lo, self.hi = self._bounds(cs, sph_lo, sph_hi)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..accel.grid import GridAccelerator
-from .raycaster import SampleResult
+from .context import SampleResult
 from .shading import light_directions, phong
 
 # -visualize_grid colours a cell by how many primitives it holds: white 1, magenta 2, then through blue, cyan,

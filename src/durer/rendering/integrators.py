@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from ..options import RenderOptions
 from .grid_view import visualize_grid
-from .path import path_trace
+from .path import path_trace, prepare_path
 from .raycaster import raycast
 from .whitted import whitted
 
@@ -24,13 +24,16 @@ PATH_BATCH = 1 << 16  # paths per wavefront: 2^14 -> 2^16 measured 1.5x faster (
 class Integrator:
     """An integrator and how to drive it: `batch` rays per call (its working memory grows with it), `workers`
     units traced at once by the local driver (each with its share of the threads), `bytes_per_ray` of working
-    memory per ray of a batch (the memory check, measured)."""
+    memory per ray of a batch (the memory check, measured), and `prepare(ctx)`, run once per render by
+    units.prepare, for the tables it builds from the compiled scene (none for the Phong integrators, whose
+    MaterialTable the context holds)."""
 
     name: str
     trace: Callable
     batch: int = CHUNK
     workers: int = 1
     bytes_per_ray: int = 1200
+    prepare: Callable | None = None  # builds what it reads besides the context, once per render (into ctx.prepared)
 
 
 RAYCAST = Integrator("raycast", raycast, bytes_per_ray=600)
@@ -38,7 +41,7 @@ WHITTED = Integrator("whitted", whitted, bytes_per_ray=2000)
 GRID = Integrator("grid", visualize_grid, bytes_per_ray=600)
 # two wavefronts at once (the kernels free the GIL), each bounce's kernels on the threads left to it: two on two
 # cores each splitting its bounces over both threads took 1.35x the wall time (caustic scene, 32 spp)
-PATH = Integrator("path", path_trace, batch=PATH_BATCH, workers=2, bytes_per_ray=1200)
+PATH = Integrator("path", path_trace, batch=PATH_BATCH, workers=2, bytes_per_ray=1200, prepare=prepare_path)
 
 
 def integrator_for(options: RenderOptions) -> Integrator:

@@ -25,8 +25,8 @@ from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
 from .bsdfs import BSDFTable
+from .context import RenderContext, SampleResult
 from .emitters import Emitters
-from .raycaster import RenderContext, SampleResult
 from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, sobol_pair, uniform
 from .texturing import leaf_weights
 
@@ -58,6 +58,13 @@ class PathTracer:
         self._bvh = ctx.accel.kernel_tree() if numba_shading else None
         self._fused = self._bvh is not None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
+
+    def __getstate__(self) -> dict:
+        return {k: v for k, v in self.__dict__.items() if k != "_local"}  # buffers belong to this process's threads
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._local = threading.local()
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
         """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
@@ -216,15 +223,21 @@ class PathTracer:
         return out
 
 
+def prepare_path(ctx: RenderContext) -> None:
+    """Build the path tracer's tables (BSDFs, emitters, surfaces, the tree to walk) once for a render."""
+    ctx.prepared.setdefault("path", PathTracer(ctx))
+
+
 def path_trace(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float,
                pixel: np.ndarray | None = None, sample: np.ndarray | None = None) -> SampleResult:
     """The path tracer as an integrator: radiance (N,3) along camera rays of film samples (pixel, sample index:
     the keys of their random numbers), with t and geometric normal of the first hit. The PathTracer is built once
-    per context (and process) and shared by the threads tracing units."""
+    per render, at prepare time (prepare_path), and shared by the threads and processes tracing units."""
     if pixel is None or sample is None:
         raise ValueError("the path tracer keys its random numbers by pixel and sample index: give both")
-    tracer = ctx.cache.get("path")
-    if tracer is None:
-        tracer = ctx.cache.setdefault("path", PathTracer(ctx))
+    tracer = ctx.prepared.get("path")
+    if tracer is None:  # a context not prepared for the path tracer (explain, tests): build it once here
+        prepare_path(ctx)
+        tracer = ctx.prepared["path"]
     color, t, normal = tracer.trace(origins, directions, t_min, np.asarray(pixel), np.asarray(sample))
     return SampleResult(color, t, normal)

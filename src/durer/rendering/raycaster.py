@@ -1,53 +1,22 @@
-"""Integrators: what colour a camera ray brings back.
+"""The ray caster: what colour a camera ray brings back, from its closest hit alone.
 
 `raycast` is the lecture's algorithm: eye rays only, the closest hit shaded from its normal, the lights and the
 viewpoint (flat colour when the scene has no lights at all, as in assignment 1). The ray tracer, which adds
-secondary rays, builds on the same RenderContext.
+secondary rays, builds on the same RenderContext and the surface and shading steps here. (RenderContext and
+SampleResult live in context.py; they are re-exported here for existing imports.)
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from ..accel.compile import TRIANGLE, CompiledScene
-from ..accel.hits import Accelerator, Hits, geometric_normals, hit_materials
-from ..options import RenderOptions
-from ..scene.graph import Scene
+from ..accel.hits import Hits, geometric_normals, hit_materials
+from .context import RenderContext, SampleResult
 from .shading import MaterialTable, light_directions, phong
-from .texturing import diffuse_colors, emission, has_image_textures, leaf_weights
+from .texturing import diffuse_colors, emission, leaf_weights
 
-
-@dataclass
-class RenderContext:
-    """What every integrator needs: the scene, its flattened geometry, an accelerator and the options."""
-
-    scene: Scene
-    compiled: CompiledScene
-    accel: Accelerator
-    options: RenderOptions = field(default_factory=RenderOptions)
-    materials: MaterialTable | None = None
-    textured: bool = False  # some material has an image texture: integrators compute UVs at the hits
-    # what an integrator builds once per process and reuses (the path tracer's tables and buffers); not pickled
-    cache: dict = field(default_factory=dict, repr=False, compare=False)
-
-    def __getstate__(self) -> dict:
-        return {**self.__dict__, "cache": {}}
-
-    def __post_init__(self):
-        if self.materials is None and self.scene.lights is not None:
-            self.materials = MaterialTable.from_materials(self.scene.materials)
-        self.textured = has_image_textures(self.scene.materials) and self.compiled.has_uv
-
-
-@dataclass
-class SampleResult:
-    """Per-ray results: linear colour (N,3), t of the closest hit (inf on a miss), world normal (N,3)."""
-
-    color: np.ndarray
-    t: np.ndarray
-    normal: np.ndarray
+__all__ = ["RenderContext", "SampleResult", "raycast", "shade_local", "surface"]  # the first two: context.py
 
 
 def _triangle_attribute(hits: Hits, points: np.ndarray, at, fill: float, width: int) -> np.ndarray:

@@ -1,6 +1,7 @@
 """The unit of work of a render: (tile, sample range) -> Accumulators, one call that can run anywhere.
 
-    job = prepare(scene, width, height, options)           # compile, accelerator, camera, integrator: picklable
+    job = prepare(scene, width, height, options)           # compile, accelerator, camera, integrator and its
+                                                            # tables: picklable
     acc = Accumulators.empty(job)                           # the whole image's sums
     for tile, samples in job.units():                       # any order across tiles; a tile's ranges ascending
         acc.add(render_unit(job, tile, samples))           # anywhere: a thread, a process, a Dask worker
@@ -17,12 +18,15 @@ fixed order (neighbour pixels row-major, then their samples in order: film.recon
 the same to the bit whatever the tile size, the batch size and the thread count, and the same as reconstructing
 all the samples at once. Splatting a tile's samples into its neighbours' pixels would add partial sums of
 different tiles, which depends on the tiling (float addition is not associative). The price is tracing each
-halo sample once more per tile that needs it: nothing for the default box filter (support radius 0), ~3% for a
-radius-1 tent or gaussian on the tiles plan() picks.
+halo sample once more per tile that needs it: nothing for the default box filter (support radius 0); for a
+radius-1 tent or gaussian on the tiles plan() picks, 3% more rays at 16 spp and at most 13% at any count (a
+pass holds few enough samples that the tile stays 32 radii wide within a unit's memory bound).
 
 Sample ranges of one tile add (Accumulators.add) in ascending order; the canonical decomposition (Job.units)
-uses passes of PASS samples, so a render with at most PASS samples per pixel is one pass. Splitting the samples
-otherwise (progressive refinement) gives the same image up to the rounding of the sums' association.
+uses the passes plan() gives for the sample count and filter: one pass, film.reconstruct's bits, up to 4096
+samples with the box filter, 226 with a radius-1 tent or gaussian, 56 with radius 2. Splitting the samples
+otherwise (progressive refinement: Job.refinement) gives the same image up to the rounding of the sums'
+association. run() is the local driver: the canonical units on threads, added in order.
 Every sample is keyed by (pixel, sample index) (film.tile_offsets, the path tracer's random streams), so a halo
 pixel's samples are the same in every unit that traces them.
 """
@@ -36,25 +40,19 @@ from dataclasses import dataclass, fields
 import numba as nb
 import numpy as np
 
-from ..accel.brute import BruteForce
-from ..accel.bvh import BVHAccelerator
-from ..accel.compile import compile_scene, spheres_under_transform, with_course_edges
-from ..accel.grid import GridAccelerator
-from ..accel.hits import Accelerator
-from ..accel.stats import CountingAccelerator, RayStats
 from ..kernels.bvh.layout import TILE
 from ..options import RenderOptions
 from ..scene.cameras import image_camera
 from ..scene.graph import Scene
-from ..scene.validate import check_scene
 from . import film
+from .context import RenderContext, SampleResult, make_context
 from .integrators import Integrator, integrator_for
-from .raycaster import RenderContext, SampleResult
 from .result import RenderResult
 
 UNIT_SAMPLES = 1 << 18  # samples a unit traces (halo included) when the tile can be that small: its memory bound
 PASS = 4096             # samples per pixel of one pass of the canonical decomposition
 MAX_TILE = 256          # tile side at most: enough units for two workers and a live progress bar
+HALO_SIDES = 32         # a tile is at least this many filter radii wide: ((32 + 2) / 32)^2 = 1.13x the rays at most
 BASE = ("color", "t", "normal")  # SampleResult's own fields; any other non-None (N,k) field is an AOV
 
 
@@ -90,10 +88,15 @@ class Tile:
 
 
 def plan(samples: int, radius: int) -> tuple[int, int]:
-    """(tile side, samples per pass): passes of at most PASS samples, and the largest tile side (a multiple of 4,
-    so 1-spp batches are whole 4 x 4 packets; at most MAX_TILE) whose pixels and halo hold UNIT_SAMPLES samples
-    of a pass. Only memory and speed depend on it, never the image."""
-    per_pass = min(samples, PASS)
+    """(tile side, samples per pass). The tile side (a multiple of 4, so 1-spp batches are whole 4 x 4 packets; at
+    most MAX_TILE) is the largest whose pixels and halo hold UNIT_SAMPLES samples of a pass: only memory and
+    speed depend on it, never the image. Passes hold at most PASS samples, and with a filter halo few enough
+    that the tile stays HALO_SIDES halo widths wide (its halo then adds at most 13% rays), split evenly; the
+    passes depend on the sample count and filter alone, so the image does too (one pass up to 226 samples for a
+    radius-1 filter, 56 for radius 2, 4096 for the box)."""
+    limit = PASS if not radius else max(1, UNIT_SAMPLES // ((HALO_SIDES + 2) * radius) ** 2)
+    passes = -(-samples // min(samples, PASS, limit))
+    per_pass = -(-samples // passes)
     side = (math.isqrt(UNIT_SAMPLES // per_pass) - 2 * radius) // TILE * TILE
     return max(TILE, min(MAX_TILE, side)), per_pass
 
@@ -135,35 +138,32 @@ class Job:
         passes = [range(s, min(n, s + self.pass_samples)) for s in range(0, n, self.pass_samples)]
         return [(tile, samples) for samples in passes for tile in self.tiles()]
 
-
-def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
-    """Check the scene (ValueError naming a wrong object), compile it and build its accelerator."""
-    check_scene(scene)
-    cs = compile_scene(scene)
-    # the course command: triangles accept points just outside their edges, as the course's (compile.py)
-    hit_cs = with_course_edges(cs) if options.course_edges else cs
-    # the lecture's loop over every object (--accel brute), or the bounding volume hierarchy (the default)
-    accel: Accelerator = BruteForce(hit_cs) if options.accel == "brute" else BVHAccelerator(hit_cs)
-    # -grid / -stats (issue 4, item 5; grid.py, stats.py): the course's uniform grid instead of the default
-    # accelerator, and counters of rays, ray-primitive tests and grid cells, read back as RenderResult.stats
-    stats = RayStats(bounds=cs.bounds()) if options.stats else None
-    if options.grid is not None:
-        accel = GridAccelerator(cs, options.grid, sphere_as_box=spheres_under_transform(scene), stats=stats)
-        accel.cs = hit_cs  # cells hold the triangles' boxes as given (the course's insertion); tests use hit_cs
-    elif stats is not None:
-        # the course's -stats without a grid counts its loop over every object; measure that same loop, so the
-        # counts are real and compare with the course's (the image is the same as the BVH's, as tests check)
-        accel = CountingAccelerator(BruteForce(hit_cs), stats, sum(cs.counts))
-    return RenderContext(scene=scene, compiled=hit_cs, accel=accel, options=options)
+    def refinement(self) -> list[list[tuple[Tile, range]]]:
+        """Passes for progressive refinement: samples [0,1), [1,2), [2,4), [4,8), ... (at most pass_samples
+        each), every pass over every tile. finish() of the sums after any pass is the image of the samples so
+        far; after the last it is durer.render's image up to the rounding of the sums' association."""
+        n, passes, start = self.options.samples, [], 0
+        while start < n:
+            stop = min(n, start + max(1, min(start, self.pass_samples)))
+            passes.append([(tile, range(start, stop)) for tile in self.tiles()])
+            start = stop
+        return passes
 
 
 def job_for(ctx: RenderContext, width: int, height: int) -> Job:
-    """The Job of a prepared context (the preview renders many views of one compiled scene: ctx.scene's camera is
-    the one used)."""
+    """The Job of a context (the preview renders many views of one compiled scene: ctx.scene's camera is the one
+    used): plan the units, frame the camera, choose the integrator and build its tables."""
     options = ctx.options
     side, per_pass = plan(options.samples, film.support_radius(options))
+    if options.stats and film.support_radius(options):
+        # -stats counts the rays cast: halo samples traced again by a neighbouring tile would count twice, so a
+        # counted render with a wide filter is one tile (the course's images are small)
+        side = max(width, height)
     camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
-    return Job(ctx, int(width), int(height), camera, integrator_for(options), side, per_pass)
+    integrator = integrator_for(options)
+    if integrator.prepare is not None:
+        integrator.prepare(ctx)
+    return Job(ctx, int(width), int(height), camera, integrator, side, per_pass)
 
 
 def prepare(scene: Scene, width: int, height: int, options: RenderOptions) -> Job:
@@ -210,24 +210,42 @@ class Accumulators:
         """Add a unit's sums (its tile inside this one) in place and return self. Tiles are disjoint, so their
         order does not matter; a tile's sample ranges must come in ascending order for a fixed result (and then
         the depth and normal of the nearest sample, the earlier one on a tie, are the same as in one unit)."""
-        if not self.channels:  # empty(): take the unit's channels
-            self.channels = other.channels
-            self.sums = np.zeros(self.weight.shape + (other.sums.shape[-1],))
-        if other.channels != self.channels:
-            raise ValueError(f"cannot add sums of channels {other.channels} to sums of {self.channels}")
         at = other.tile.inside(self.tile)
-        self.sums[at] += other.sums
+        if other.channels != self.channels:
+            self._widen(other.channels)
+        if other.channels == self.channels:
+            self.sums[at] += other.sums
+        else:  # a unit without some AOV (none of its rays reached the integrator, e.g. outside a fisheye's circle)
+            lo = 0
+            for name, k in other.channels:
+                self.channel(name)[at] += other.sums[..., lo:lo + k]
+                lo += k
         self.weight[at] += other.weight
         nearer = other.centre < self.centre[at]
-        self.depth[at] = np.where(nearer, other.depth, self.depth[at])
-        self.normal[at] = np.where(nearer[..., None], other.normal, self.normal[at])
-        self.centre[at] = np.where(nearer, other.centre, self.centre[at])
+        np.copyto(self.depth[at], other.depth, where=nearer)
+        np.copyto(self.normal[at], other.normal, where=nearer[..., None])
+        np.copyto(self.centre[at], other.centre, where=nearer)
         return self
+
+
+    def _widen(self, channels: tuple[tuple[str, int], ...]) -> None:
+        """Make room for the channels this sum has not seen yet (zero so far: no sample had them)."""
+        have = dict(self.channels)
+        for name, k in channels:
+            if have.get(name, k) != k:
+                raise ValueError(f"channel {name!r} has {k} components here and {have[name]} before")
+        new = tuple((name, k) for name, k in channels if name not in have)
+        if new:
+            extra = np.zeros(self.weight.shape + (sum(k for _, k in new),))
+            self.sums = np.concatenate([self.sums, extra], axis=-1)
+            self.channels = self.channels + new
 
 
 def merge(parts) -> Accumulators:
     """Add units' Accumulators in the order given (a tile's sample ranges ascending) into their union's sums."""
     parts = list(parts)
+    if not parts:
+        raise ValueError("merge needs at least one unit's Accumulators")
     r0, c0 = min(p.tile.row for p in parts), min(p.tile.col for p in parts)
     r1 = max(p.tile.row + p.tile.rows for p in parts)
     c1 = max(p.tile.col + p.tile.cols for p in parts)
@@ -293,18 +311,20 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
 
 def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc: Accumulators) -> None:
     """Depth and normal of each tile pixel's sample nearest its centre (the first such sample on a tie)."""
-    rr, cc = np.divmod(np.arange(tile.pixels), tile.cols)
-    q = (rr + tile.row - halo.row) * halo.cols + (cc + tile.col - halo.col)  # tile pixels within the halo
-    s = q[:, None] * m + np.arange(m)
-    pts = points[s]
-    cx, cy = cc + tile.col + 0.5, height - (rr + tile.row) - 0.5
-    d2 = (pts[..., 0] - cx[:, None]) ** 2 + (pts[..., 1] - cy[:, None]) ** 2
-    best = np.argmin(d2, axis=1)
-    pick = s[np.arange(tile.pixels), best]
-    shape = (tile.rows, tile.cols)
-    acc.depth[:] = t[pick].reshape(shape)
-    acc.normal[:] = normal[pick].reshape(shape + (3,))
-    acc.centre[:] = d2[np.arange(tile.pixels), best].reshape(shape)
+    rows, cols = tile.inside(halo)
+    pts = points.reshape(halo.rows, halo.cols, m, 2)[rows, cols]  # the tile's own samples, (rows, cols, m, 2)
+    cx = np.arange(tile.col, tile.col + tile.cols) + 0.5
+    cy = height - np.arange(tile.row, tile.row + tile.rows) - 0.5
+    d2 = (pts[..., 0] - cx[None, :, None]) ** 2 + (pts[..., 1] - cy[:, None, None]) ** 2
+    own_t = t.reshape(halo.rows, halo.cols, m)[rows, cols]
+    own_n = normal.reshape(halo.rows, halo.cols, m, 3)[rows, cols]
+    if m == 1:
+        acc.depth[:], acc.normal[:], acc.centre[:] = own_t[..., 0], own_n[..., 0, :], d2[..., 0]
+        return
+    best = np.argmin(d2, axis=-1)[..., None]
+    acc.depth[:] = np.take_along_axis(own_t, best, axis=-1)[..., 0]
+    acc.normal[:] = np.take_along_axis(own_n, best[..., None], axis=-2)[..., 0, :]
+    acc.centre[:] = np.take_along_axis(d2, best, axis=-1)[..., 0]
 
 
 def finish(job: Job, acc: Accumulators) -> RenderResult:
@@ -312,6 +332,8 @@ def finish(job: Job, acc: Accumulators) -> RenderResult:
     weighs), depth and normals of the centre samples, all float32 (H,W,...)."""
     if acc.tile != job.tile:
         raise ValueError(f"finish needs the sums of the whole image {job.tile}, got {acc.tile}")
+    if not acc.channels:
+        raise ValueError("finish needs the sums of at least one unit (none were added)")
     w = acc.weight[..., None]
     pixels = np.divide(acc.sums, w, out=np.zeros_like(acc.sums), where=w > 0)
     aovs, lo = {}, 3
@@ -333,20 +355,27 @@ def run(job: Job, units: list[tuple[Tile, range]] | None = None, bar=None) -> Ac
     threads = nb.get_num_threads()
     workers = max(1, min(job.integrator.workers, threads, len(units)))
 
+    def add(unit: tuple[Tile, range], part: Accumulators) -> None:
+        acc.add(part)
+        if bar is not None:
+            bar.update(unit[0].pixels * len(unit[1]))
+
+    if workers == 1:
+        for unit in units:
+            add(unit, render_unit(job, *unit))
+        return acc
+
     def one(unit: tuple[Tile, range]) -> Accumulators:
         nb.set_num_threads(max(1, threads // workers))  # this thread's kernels (Numba's count is per thread)
         return render_unit(job, *unit)
 
-    results = map(lambda u: render_unit(job, *u), units) if workers == 1 else None
-    if results is None:
-        pool = ThreadPoolExecutor(workers, thread_name_prefix="durer-unit")
-        results = pool.map(one, units)
-    try:
-        for (tile, samples), part in zip(units, results, strict=True):
-            acc.add(part)
-            if bar is not None:
-                bar.update(tile.pixels * len(samples))
-    finally:
-        if workers > 1:
-            pool.shutdown(cancel_futures=True)
+    with ThreadPoolExecutor(workers, thread_name_prefix="durer-unit") as pool:
+        futures = [pool.submit(one, unit) for unit in units]
+        try:
+            for unit, future in zip(units, futures, strict=True):
+                add(unit, future.result())
+        except BaseException:  # an error or Ctrl-C: drop the units not started
+            for future in futures:
+                future.cancel()
+            raise
     return acc

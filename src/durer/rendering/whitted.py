@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .raycaster import RenderContext, SampleResult, hit_tint, hit_uv, raycast, shade_local, surface
+from .context import RenderContext, SampleResult
+from .raycaster import hit_tint, hit_uv, raycast, shade_local, surface
 from .shading import light_directions
 from .texturing import leaf_weights
 
