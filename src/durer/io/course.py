@@ -22,6 +22,7 @@ from ..scene.lights import DirectionalLight, PointLight
 from ..scene.materials import PhongMaterial
 from ..scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 from ..scene.textures import Checkerboard, Marble, Noise, Wood
+from ..scene.validate import MAX_NESTING
 from .obj import read_obj
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
@@ -139,6 +140,7 @@ class _Parser:
         self.mesh_path = mesh_path
         self.num_materials: int | None = None
         self.current_material: int | None = None
+        self.depth = 0  # Groups and Transforms open around the object being read (limited to MAX_NESTING)
 
     # --- top level ---------------------------------------------------------------------------------------
     def scene(self) -> Scene:
@@ -301,18 +303,28 @@ class _Parser:
         return tex
 
     def _check_texture_cycles(self, mats: list, line: int) -> None:
-        def visit(i: int, stack: tuple[int, ...]) -> None:
-            m = mats[i]
-            if isinstance(m, PhongMaterial):
-                return
-            if i in stack:
-                raise self.t.error(f"material {i} blends itself (a cycle of material indices)",
-                                   getattr(m, "_line", line))
-            visit(m.material1, stack + (i,))
-            visit(m.material2, stack + (i,))
-
-        for i in range(len(mats)):
-            visit(i, ())
+        """A texture blends two materials by index; following those indices must end at Phong materials. Walked
+        with an explicit stack (a chain of thousands of textures must not overflow Python's)."""
+        done: set[int] = set()  # materials whose every blend ends at Phong materials
+        for root in range(len(mats)):
+            on_path: set[int] = set()
+            stack: list[tuple[int, int]] = [(root, 0)]  # (material, how many of its two blends were followed)
+            while stack:
+                i, k = stack.pop()
+                m = mats[i]
+                if isinstance(m, PhongMaterial) or i in done:
+                    continue
+                if k == 0:
+                    if i in on_path:
+                        raise self.t.error(f"material {i} blends itself (a cycle of material indices)",
+                                           getattr(m, "_line", line))
+                    on_path.add(i)
+                if k < 2:
+                    stack.append((i, k + 1))
+                    stack.append(((m.material1, m.material2)[k], 0))
+                else:
+                    on_path.discard(i)
+                    done.add(i)
 
     # --- objects ---------------------------------------------------------------------------------------------
     def group(self, line: int) -> Group:
@@ -349,14 +361,8 @@ class _Parser:
     def object(self, kind: str, line: int):
         t = self.t
         t.expect("{", f"after {kind}")
-        if kind == "Group":
-            return self.group(line)
-        if kind == "Transform":
-            matrix, obj = self.transformations(line, allow_object=True)
-            try:
-                return Transform(matrix, obj)
-            except ValueError as e:
-                raise t.error(str(e), line) from None
+        if kind in ("Group", "Transform"):
+            return self.nested(kind, line)
         material = self._material_for(kind, line)
         if kind == "Sphere":
             v, lines = _fields(t, kind, {"center": _vec3, "radius": _num}, ("center", "radius"), line)
@@ -382,6 +388,24 @@ class _Parser:
 
             vertices, faces = read_mesh(path)
         return TriangleMesh(vertices, faces, material, source=path)
+
+    def nested(self, kind: str, line: int) -> Group | Transform:
+        """A Group or Transform inside another: the parser recurses, so nesting deeper than MAX_NESTING levels
+        is a SceneError at the level that passes it (no scene needs it; Python's stack would overflow)."""
+        t = self.t
+        if self.depth >= MAX_NESTING:
+            raise t.error(f"Groups and Transforms nested more than {MAX_NESTING} levels deep", line)
+        self.depth += 1
+        try:
+            if kind == "Group":
+                return self.group(line)
+            matrix, obj = self.transformations(line, allow_object=True)
+            try:
+                return Transform(matrix, obj)
+            except ValueError as e:
+                raise t.error(str(e), line) from None
+        finally:
+            self.depth -= 1
 
     def _material_for(self, kind: str, line: int) -> int:
         if self.current_material is not None:

@@ -1,0 +1,91 @@
+"""Issue 25's bad inputs, each pinned: one clear error (`FILE:LINE:` for files, exit status 2 from the CLI, a
+SceneError or ValueError from Python), never a traceback, a hang or an allocation the machine cannot make."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import durer
+from durer.cli import main
+from durer.scene.validate import MAX_NESTING, check_scene
+
+HEADER = """PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }
+Background { color 0 0 0 }
+Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }
+"""
+SPHERE = "Sphere { center 0 0 0 radius 1 }"
+
+
+def run(capsys, *argv: str) -> tuple[int, str]:
+    """Exit status and stderr of `durer ARGV` run in this process."""
+    code = main([str(a) for a in argv])
+    return code, capsys.readouterr().err
+
+
+def one_line_error(code: int, err: str) -> str:
+    """The CLI's error, asserted to be exit status 2 with no traceback; returns the last line."""
+    assert code == 2, err
+    assert "Traceback" not in err, err
+    return err.strip().splitlines()[-1]
+
+
+# --- nesting and cycles ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("levels, opening", [
+    (5000, "Group {{ numObjects 1 "),                       # issue 25: RecursionError at io/course.py:64
+    (3000, "Transform {{ Translate 0 0 0 "),                # ... and :70
+])
+def test_deep_nesting_in_a_course_scene_is_a_scene_error(tmp_path, capsys, levels, opening):
+    body = "Group { numObjects 1 " + opening.format() * levels + SPHERE + " }" * levels + " }"
+    path = tmp_path / "deep.txt"
+    path.write_text(HEADER + body)
+    with pytest.raises(durer.SceneError, match=f"nested more than {MAX_NESTING} levels deep") as e:
+        durer.load(path)
+    assert e.value.line == 4 and e.value.path == str(path)
+    line = one_line_error(*run(capsys, "render", path, "-o", tmp_path / "o.png", "--size", 8, 8, "-q"))
+    assert line.startswith(f"{path}:4: ")
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_nesting_up_to_the_limit_renders(tmp_path):
+    body = "Group { numObjects 1 " * MAX_NESTING + SPHERE + " }" * MAX_NESTING
+    path = tmp_path / "deep.txt"
+    path.write_text(HEADER + body)
+    result = durer.render(durer.load(path), 8, 8)
+    assert np.isfinite(result.depth[4, 4]) and result.color[4, 4, 0] > 0
+
+
+def test_a_chain_of_thousands_of_textures_is_walked_without_recursion(tmp_path):
+    n = 3000  # texture k blends k + 1 and the last Phong material: the old recursive check overflowed
+    mats = "".join(f"Checkerboard {{ materialIndex {k + 1} materialIndex {n} }}\n" for k in range(n))
+    text = HEADER.replace("Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }",
+                          f"Materials {{ numMaterials {n + 1}\n{mats}PhongMaterial {{ diffuseColor 1 0 0 }} }}")
+    path = tmp_path / "chain.txt"
+    path.write_text(text + f"Group {{ numObjects 1 {SPHERE} }}")
+    assert len(durer.load(path).materials) == n + 1
+    cyclic = text.replace(f"Checkerboard {{ materialIndex {n} materialIndex {n} }}",
+                          f"Checkerboard {{ materialIndex 0 materialIndex {n} }}")
+    path.write_text(cyclic + f"Group {{ numObjects 1 {SPHERE} }}")
+    with pytest.raises(durer.SceneError, match="blends itself"):
+        durer.load(path)
+
+
+def _python_scene(group: durer.Group) -> durer.Scene:
+    return durer.Scene(camera=durer.PerspectiveCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 40), group=group)
+
+
+def test_a_group_that_contains_itself_is_a_value_error():
+    inner = durer.Group([durer.Sphere((0, 0, 0), 1, material=0)])
+    outer = durer.Group([inner, durer.Transform(np.eye(4), inner)])  # shared, not a cycle: fine
+    check_scene(_python_scene(outer))
+    inner.objects.append(outer)
+    with pytest.raises(ValueError, match=r"scene.group.objects\[0\].objects\[1\]: a Group that contains itself"):
+        durer.render(_python_scene(outer), 8, 8)
+
+
+def test_deep_nesting_from_python_is_a_value_error():
+    obj: object = durer.Sphere((0, 0, 0), 1, material=0)
+    for _ in range(5000):
+        obj = durer.Group([durer.Transform(np.eye(4), obj)])
+    with pytest.raises(ValueError, match=f"nested more than {MAX_NESTING} levels deep"):
+        durer.render(_python_scene(obj), 8, 8)
