@@ -89,3 +89,75 @@ def test_deep_nesting_from_python_is_a_value_error():
         obj = durer.Group([durer.Transform(np.eye(4), obj)])
     with pytest.raises(ValueError, match=f"nested more than {MAX_NESTING} levels deep"):
         durer.render(_python_scene(obj), 8, 8)
+
+
+# --- sizes and values checked before work starts -------------------------------------------------------------
+EXAMPLE = str(__import__("pathlib").Path(__file__).resolve().parents[1] / "examples" / "spheres.txt")
+
+
+@pytest.fixture
+def no_render(monkeypatch):
+    """Fail the test if a render starts: these mistakes must be caught before it."""
+    import durer.rendering.renderer as renderer
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("rendered before the mistake was reported")
+
+    monkeypatch.setattr(renderer, "render", refuse)
+    monkeypatch.setattr(renderer, "make_context", refuse)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["render", EXAMPLE, "-o", "{tmp}/o.png", "--filter", "box:inf"],               # issue 25: OverflowError
+     "box filter radius inf is too wide: at most 16 pixels"),
+    (["render", EXAMPLE, "-o", "{tmp}/o.png", "--filter", "gaussian:200", "--integrator", "path"],  # ran > 60 s
+     "gaussian filter sigma 200 is too wide: at most 8 pixels"),
+    (["render", EXAMPLE, "-o", "{tmp}/o.png", "--filter", "tent:nan"], "--filter: the width must be positive"),
+    (["raycast", "-input", EXAMPLE, "-size", "32", "32", "-output", "{tmp}/o.png", "-gaussian_filter", "9"],
+     "gaussian filter sigma 9 is too wide"),
+    (["raycast", "-input", EXAMPLE, "-size", "32", "32", "-output", "{tmp}/o.png", "-grid", "1000", "1000", "1000"],
+     "grid 1000 x 1000 x 1000 has 1,000,000,000 cells: at most 16,777,216"),   # issue 25: 16.7 GB in 40 s
+    (["raycast", "-input", EXAMPLE, "-size", "32", "32", "-render_samples", "{tmp}/s.png", "100000"],  # 14 TiB
+     "-render_samples ZOOM: a 32x32 image zoomed 100000 times would be 3200000x3200000 pixels; at most 16384"),
+    (["raycast", "-input", EXAMPLE, "-size", "32", "32", "-render_filter", "{tmp}/s.png", "600"],
+     "-render_filter ZOOM: a 32x32 image zoomed 600 times"),
+    (["render", EXAMPLE, "-o", "{tmp}/o.png", "--depth", "10", "1", "{tmp}/d.png"],    # issue 25: near > far
+     "--depth: NEAR (10) must be less than FAR (1)"),
+    (["raycast", "-input", EXAMPLE, "-size", "8", "8", "-depth", "3", "3", "{tmp}/d.png"],
+     "-depth: NEAR (3) must be less than FAR (3)"),
+    (["render", EXAMPLE, "-o", "{tmp}/o.png", "--size", "200000", "200000"], "would need about"),
+    (["raycast", "-input", EXAMPLE, "-size", "200000", "200000", "-output", "{tmp}/o.tga"], "would need about"),
+    (["raycast", "-input", EXAMPLE, "-size", "20000", "20", "-render_filter", "{tmp}/s.png", "1"],
+     "would be 20000x20 pixels; at most 16384 a side (use a smaller -size)"),
+])
+def test_sizes_and_values_are_checked_before_rendering(tmp_path, capsys, no_render, argv, message):
+    line = one_line_error(*run(capsys, *(a.format(tmp=tmp_path) for a in argv)))
+    assert message in line
+    assert not list(tmp_path.iterdir())
+
+
+def test_python_api_checks_the_same_sizes():
+    scene = durer.load(EXAMPLE)
+    with pytest.raises(ValueError, match="gaussian filter sigma 200 is too wide"):
+        durer.render(scene, 32, 32, filter="gaussian:200", integrator="path")
+    with pytest.raises(ValueError, match="grid 1000 x 1000 x 1000 has 1,000,000,000 cells"):
+        durer.render(scene, 32, 32, grid=(1000, 1000, 1000))
+    from durer.accel.compile import compile_scene
+    from durer.accel.grid import GridAccelerator
+
+    with pytest.raises(ValueError, match="at most 16,777,216"):
+        GridAccelerator(compile_scene(scene), (4096, 4096, 2))
+
+
+def test_widest_filter_allowed_renders(tmp_path):
+    result = durer.render(durer.load(EXAMPLE), 8, 8, samples=4, filter="gaussian:8")
+    assert result.color.shape == (8, 8, 3) and np.isfinite(result.color).all()
+
+
+def test_exr_without_openexr_is_refused_before_rendering(tmp_path, capsys, monkeypatch, no_render):
+    monkeypatch.setitem(__import__("sys").modules, "OpenEXR", None)  # `import OpenEXR` now raises ImportError
+    line = one_line_error(*run(capsys, "render", EXAMPLE, "-o", tmp_path / "out.exr"))
+    assert "writing .exr needs the openexr package" in line
+    line = one_line_error(*run(capsys, "render", EXAMPLE, "-o", tmp_path / "o.png", "--normals", tmp_path / "n.exr"))
+    assert "openexr" in line
+    assert not list(tmp_path.iterdir())

@@ -100,8 +100,10 @@ def _umask() -> int:
 def check_writable(path: str) -> None:
     """Raise unless an image can be written at `path`, naming it: UsageError for an unknown extension, and
     FileNotFoundError (missing folder), IsADirectoryError (a folder in the way) or PermissionError (a folder or
-    file we may not write) with a one-line message. Called before rendering, so nothing is rendered in vain."""
-    check_extension(path)
+    file we may not write) with a one-line message, and UsageError if the format needs a package that is not
+    installed (.exr: openexr). Called before rendering, so nothing is rendered in vain."""
+    if check_extension(path) == ".exr":
+        _openexr()
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"cannot write '{path}': folder '{folder}' does not exist")
