@@ -161,3 +161,82 @@ def test_exr_without_openexr_is_refused_before_rendering(tmp_path, capsys, monke
     line = one_line_error(*run(capsys, "render", EXAMPLE, "-o", tmp_path / "o.png", "--normals", tmp_path / "n.exr"))
     assert "openexr" in line
     assert not list(tmp_path.iterdir())
+
+
+# --- malformed mesh data that trimesh lets through ------------------------------------------------------------
+PLY_HEAD = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n")
+
+
+@pytest.mark.parametrize("text, message", [
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", ":4: face index 0 out of range"),       # issue 25: rendered
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n", ":5: face index 9 out of range"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2 -4\n", ":4: face index -4 out of range"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", ":4: face index is not an integer: 'x'"),
+])
+def test_obj_face_indices_are_checked(tmp_path, capsys, text, message):
+    path = tmp_path / "bad.obj"
+    path.write_text(text)
+    with pytest.raises(durer.SceneError, match=message.split(": ", 1)[1]):
+        durer.load(path)
+    line = one_line_error(*run(capsys, "render", path, "-o", tmp_path / "o.png", "-q"))
+    assert line.startswith(f"{path}{message}")
+
+
+def test_obj_faces_may_name_vertices_given_later_and_count_back(tmp_path):
+    path = tmp_path / "ok.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\nf -3 -2 -1\n")
+    assert len(durer.load(path).group.objects[0].faces) == 2
+
+
+def test_ply_faces_out_of_range_are_a_scene_error(tmp_path, capsys):
+    path = tmp_path / "bad.ply"
+    path.write_text(PLY_HEAD + "3 0 1 7\n")                                          # issue 25: accepted
+    message = "face 0 uses vertices [0, 1, 7], but the mesh has 3 vertices (0..2)"
+    line = one_line_error(*run(capsys, "render", path, "-o", tmp_path / "o.png", "-q"))
+    assert line == f"{path}: {message}"
+    scene = tmp_path / "scene.txt"  # the same mesh named by a course scene
+    scene.write_text(HEADER + "Group { numObjects 1 TriangleMesh { obj_file bad.ply } }\n")
+    with pytest.raises(durer.SceneError, match=r"face 0 uses vertices \[0, 1, 7\]"):
+        durer.load(scene)
+    ok = tmp_path / "ok.ply"
+    ok.write_text(PLY_HEAD + "3 0 1 2\n")
+    assert len(durer.load(ok).group.objects[0].faces) == 1
+
+
+def _gltf(tmp_path, nodes: list[dict]) -> str:
+    """A glTF file of one triangle (embedded buffer) drawn by node 0, with the given node list."""
+    import base64
+    import json
+
+    data = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0], np.float32).tobytes() + np.array([0, 1, 2], np.uint16).tobytes()
+    gltf = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": nodes,
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+            "buffers": [{"byteLength": len(data),
+                         "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                            {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                           "min": [0, 0, 0], "max": [1, 1, 0]},
+                          {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]}
+    path = tmp_path / "model.gltf"
+    path.write_text(json.dumps(gltf))
+    return str(path)
+
+
+@pytest.mark.parametrize("nodes, message", [
+    ([{"mesh": 0, "children": [0]}], "node 0 is its own child: the node hierarchy has a cycle"),  # issue 25
+    ([{"mesh": 0, "children": [1]}, {"children": [2]}, {"children": [0]}],
+     "node 0 is a descendant of its child (via node 2): the node hierarchy has a cycle"),
+    ([{"mesh": 0, "children": [5]}], "node 0 has child 5, but the file has 1 nodes"),
+    ([{"mesh": 0, "children": "1"}], "node 0's children are not a list of node indices"),
+])
+def test_gltf_node_cycles_are_a_scene_error(tmp_path, capsys, nodes, message):
+    path = _gltf(tmp_path, nodes)
+    line = one_line_error(*run(capsys, "render", path, "-o", tmp_path / "o.png", "-q"))
+    assert line == f"{path}: malformed glTF: {message}"
+
+
+def test_a_gltf_tree_loads(tmp_path):
+    path = _gltf(tmp_path, [{"mesh": 0, "children": [1, 2]}, {"mesh": 0}, {"children": [3]}, {"mesh": 0}])
+    assert len(durer.load(path).group.objects) == 3
