@@ -61,7 +61,12 @@ def _trimesh_load(path: str):
     if ext == ".obj":
         check_obj_faces(path)
     elif ext in GLTF:
-        check_node_graph(read_gltf_json(path), path)
+        try:
+            gltf = read_gltf_json(path)
+        except SceneError:
+            gltf = None  # not glTF at all: trimesh's own message says why
+        if gltf is not None:
+            check_node_graph(gltf, path)
     try:
         tm = trimesh.load(path, force="scene", process=False)
     except Exception as e:  # noqa: BLE001  (trimesh's readers raise anything from KeyError to struct.error)
