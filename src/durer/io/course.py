@@ -23,6 +23,7 @@ from ..scene.materials import PhongMaterial
 from ..scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 from ..scene.textures import Checkerboard, Marble, Noise, Wood
 from ..scene.validate import MAX_NESTING
+from .files import find_mesh, mesh_search_path
 from .obj import read_obj
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
@@ -380,7 +381,10 @@ class _Parser:
             return Triangle(v["vertex0"], v["vertex1"], v["vertex2"], material)
         # TriangleMesh
         v, lines = _fields(t, kind, {"obj_file": _word}, ("obj_file",), line)
-        path = self._find_mesh(v["obj_file"], lines["obj_file"])
+        try:
+            path = find_mesh(v["obj_file"], self.path, self.mesh_path)
+        except SceneError as e:
+            raise t.error(e.message, lines["obj_file"]) from None
         if path.lower().endswith(".obj"):
             vertices, faces = read_obj(path)  # the course's OBJ subset, with file:line errors
         else:  # any other model format trimesh reads (PLY, STL, OFF, glTF, ...)
@@ -413,17 +417,6 @@ class _Parser:
         if not self.num_materials:
             raise self.t.error(f"{kind} has no material: the scene defines no Materials", line)
         return 0
-
-    def _find_mesh(self, name: str, line: int) -> str:
-        here = os.path.join(os.path.dirname(os.path.abspath(self.path)), name)
-        candidates = [here, name] + [os.path.join(d, name) for d in self.mesh_path]
-        for candidate in candidates:
-            if os.path.isfile(candidate):
-                return candidate
-        where = f"looked in {os.path.dirname(here) or '.'}, in the working directory {os.getcwd()}"
-        where += f" and in {os.pathsep.join(self.mesh_path)}" if self.mesh_path else " and in no other folder"
-        raise self.t.error(f"mesh file '{name}' not found ({where}); add folders to search with "
-                           f"--mesh-path DIR or the DURER_MESH_PATH environment variable", line)
 
     def transformations(self, line: int, allow_object: bool):
         """Transformations composed in file order (M = M @ T), then (if allowed) exactly one object and '}'."""
@@ -480,13 +473,6 @@ class _Parser:
         if allow_object and obj is None:
             raise t.error("Transform has no object", line)
         return m, obj
-
-
-def mesh_search_path(extra: list[str] | None = None) -> list[str]:
-    """Folders searched for mesh files after the scene's own folder and the working directory:
-    `extra`, then the entries of the DURER_MESH_PATH environment variable (os.pathsep-separated)."""
-    env = [d for d in os.environ.get("DURER_MESH_PATH", "").split(os.pathsep) if d]
-    return list(extra or []) + env
 
 
 def load_course_scene(path: str | os.PathLike, mesh_path: list[str] | None = None) -> Scene:
