@@ -82,7 +82,7 @@ BAD_FLAGS = [
     ["raycast", "-input", "SCENE", "-size", "a", "10", "-output", "x.tga"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bogus"],
     ["raycast", "-input", "SCENE", "-size", "10", "10"],                            # nothing to write
-    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.jpeg"],      # unknown format
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.webp"],      # unknown format
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-depth", "1", "x", "d.tga"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bounces", "-1"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-visualize_grid"],

@@ -16,7 +16,7 @@ import time
 
 from .errors import DurerError, UsageError
 from .io.images import check_writable
-from .options import ACCELERATORS, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions
+from .options import ACCELERATORS, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions, thread_count
 
 EXIT_USAGE = 2
 
@@ -105,7 +105,13 @@ def course_parser() -> argparse.ArgumentParser:
     p.add_argument("-gouraud", action="store_true", help="(preview only: ignored)")
     p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
                    help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
+    _add_threads(p)
     return p
+
+
+def _add_threads(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--threads", "-threads", type=_nonneg_int, default=None, metavar="N",
+                   help="render on N threads (default and 0: every core; pbrt's --nthreads, Mitsuba's -t)")
 
 
 def _validate(opts: RenderOptions) -> None:
@@ -172,6 +178,11 @@ def _check_outputs(paths: list[str]) -> None:
 
 def run_course(argv: list[str]) -> int:
     a = course_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return _run_course(a)
+
+
+def _run_course(a: argparse.Namespace) -> int:
     opts = _course_options(a)
     _validate(opts)
     width, height = a.size
@@ -248,6 +259,7 @@ def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] |
                         "the lecture's loop over every object (kernels/brute.py; slow on large scenes)")
     p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
                    help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
+    _add_threads(p)
 
 
 def render_options(a: argparse.Namespace, scene_defaults: dict | None = None) -> RenderOptions:
@@ -305,9 +317,14 @@ def render_parser() -> argparse.ArgumentParser:
 
 
 def run_render(argv: list[str]) -> int:
+    a = render_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return _run_render(a)
+
+
+def _run_render(a: argparse.Namespace) -> int:
     from .rendering.renderer import check_size, render
 
-    a = render_parser().parse_args(argv)
     render_options(a)  # a bad flag is reported before anything is read
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
@@ -359,7 +376,9 @@ def explain_parser() -> argparse.ArgumentParser:
 def run_explain(argv: list[str]) -> int:
     from .cli_explain import explain_command
 
-    return explain_command(explain_parser().parse_args(argv), render_options)
+    a = explain_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return explain_command(a, render_options)
 
 
 def preview_parser() -> argparse.ArgumentParser:
@@ -371,7 +390,9 @@ def preview_parser() -> argparse.ArgumentParser:
 def run_preview(argv: list[str]) -> int:
     from .preview.command import preview_command
 
-    return preview_command(preview_parser().parse_args(argv), render_options)
+    a = preview_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return preview_command(a, render_options)
 
 
 COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser),

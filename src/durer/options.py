@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 SAMPLERS = ("uniform", "random", "jittered")
@@ -85,3 +87,24 @@ def check_grid(dims) -> None:
     if cells > MAX_GRID_CELLS:
         raise ValueError(f"grid {' x '.join(str(int(n)) for n in dims)} has {cells:,} cells: at most "
                          f"{MAX_GRID_CELLS:,} (the course's largest has 52,800)")
+
+
+@contextmanager
+def thread_count(nthreads: int | None) -> Iterator[None]:
+    """Run the block on `nthreads` threads (0: every core Numba started with; None: leave it), restored after:
+    `--threads N` of every command and `durer.render(nthreads=N)`. numba.set_num_threads holds for the calling
+    thread and the kernels it starts (a worker thread takes the count over itself: preview/session.py)."""
+    if nthreads is None:
+        yield
+        return
+    if isinstance(nthreads, bool) or int(nthreads) != nthreads or nthreads < 0:
+        raise ValueError(f"nthreads must be 0 (all cores) or a positive integer, got {nthreads!r}")
+    import numba
+
+    most = numba.config.NUMBA_NUM_THREADS
+    old = numba.get_num_threads()
+    numba.set_num_threads(min(int(nthreads), most) if nthreads else most)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)
