@@ -240,3 +240,22 @@ def test_gltf_node_cycles_are_a_scene_error(tmp_path, capsys, nodes, message):
 def test_a_gltf_tree_loads(tmp_path):
     path = _gltf(tmp_path, [{"mesh": 0, "children": [1, 2]}, {"mesh": 0}, {"children": [3]}, {"mesh": 0}])
     assert len(durer.load(path).group.objects) == 3
+
+
+# --- values that made NumPy warn on stderr --------------------------------------------------------------------
+def test_a_negative_phong_exponent_is_refused(tmp_path, capsys):
+    path = tmp_path / "neg.txt"
+    path.write_text(HEADER.replace("diffuseColor 1 0 0", "diffuseColor 1 0 0\nexponent -5") + f"Group {{ numObjects 1 {SPHERE} }}")
+    line = one_line_error(*run(capsys, "render", path, "-o", tmp_path / "o.png", "--shadows"))
+    assert line == f"{path}:4: exponent must not be negative, got -5"
+    with pytest.raises(ValueError, match="PhongMaterial exponent must be finite and not negative, got -5"):
+        durer.PhongMaterial(exponent=-5)
+
+
+def test_a_sphere_scaled_past_float_range_renders_without_warnings(tmp_path):
+    path = tmp_path / "huge.txt"
+    path.write_text(HEADER + "Group { numObjects 1 Transform { Scale 1e200 1 1 " + SPHERE + " } }")
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("error", RuntimeWarning)
+        result = durer.render(durer.load(path), 8, 8)
+    assert np.isfinite(result.depth).any()

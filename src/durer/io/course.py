@@ -271,6 +271,8 @@ class _Parser:
             v, lines = _fields(t, kind, spec, (), line)
             if "indexOfRefraction" in v and not v["indexOfRefraction"] > 0:
                 raise t.error("indexOfRefraction must be positive", lines["indexOfRefraction"])
+            if v.get("exponent", 0) < 0:
+                raise t.error(f"exponent must not be negative, got {v['exponent']:g}", lines["exponent"])
             names = {"diffuseColor": "diffuse_color", "specularColor": "specular_color", "exponent": "exponent",
                      "reflectiveColor": "reflective_color", "transparentColor": "transparent_color",
                      "indexOfRefraction": "index_of_refraction"}
