@@ -24,6 +24,7 @@ from ..scene.graph import Scene
 from ..scene.validate import check_scene
 from . import film
 from .grid_view import visualize_grid
+from .kernel_cache import compile_notice
 from .raycaster import RenderContext, SampleResult, raycast
 from .whitted import whitted
 
@@ -206,8 +207,8 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
         raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
                          "integrator='path'")
     start = time.perf_counter()
-    if not quiet and kernels_cold():
-        print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
+    if not quiet:  # one line saying what compiles and for how long, when Numba's cache lacks it (kernel_cache.py)
+        compile_notice(options, scene)
     ctx = make_context(scene, options)
     if options.integrator == "path":  # issue 10: rendering/path.py drives its own passes, one per sample
         from .path import render_path
@@ -282,25 +283,6 @@ def _human(n: float) -> str:
             return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.1f} {unit}"
         n /= 1000
     return f"{n:.1f} PB"
-
-
-COLD_CHECK = ("bvh_build", "bvh_trace")  # kernel modules every render compiles and caches
-
-
-def kernels_cold(folder: str | None = None) -> bool:
-    """Is Numba's on-disk cache of the kernels still empty (the first render will compile for many seconds)?
-    Cheap: looks for the cache's index files (*.nbi) beside the kernels, in kernels/__pycache__."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return False  # a cache elsewhere: cannot tell cheaply, stay quiet
-    if folder is None:
-        from .. import kernels
-
-        folder = os.path.join(os.path.dirname(kernels.__file__), "__pycache__")
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return True
-    return not all(any(n.startswith(m + ".") and n.endswith(".nbi") for n in names) for m in COLD_CHECK)
 
 
 def _chunk(n_rays: int, width: int, height: int) -> int:
