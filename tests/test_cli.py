@@ -82,7 +82,7 @@ BAD_FLAGS = [
     ["raycast", "-input", "SCENE", "-size", "a", "10", "-output", "x.tga"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bogus"],
     ["raycast", "-input", "SCENE", "-size", "10", "10"],                            # nothing to write
-    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.jpeg"],      # unknown format
+    ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.webp"],      # unknown format
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-depth", "1", "x", "d.tga"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-bounces", "-1"],
     ["raycast", "-input", "SCENE", "-size", "10", "10", "-output", "x.tga", "-visualize_grid"],
@@ -251,11 +251,11 @@ def test_write_errors_name_the_users_path(scene, tmp_path, capsys, monkeypatch):
 
 
 def test_compile_notice_on_a_cold_start(scene, tmp_path, capsys, monkeypatch):
-    from durer.rendering import renderer
+    from durer.rendering import kernel_cache
 
-    monkeypatch.setattr(renderer, "kernels_cold", lambda: True)
+    monkeypatch.setattr(kernel_cache, "module_cached", lambda module: False)
     code, _, err = run(["render", str(scene), "-o", str(tmp_path / "o.png"), "--size", "4", "4"], capsys)
-    assert code == 0 and err.splitlines()[0] == "durer: compiling kernels (first run only) ..."
+    assert code == 0 and err.splitlines()[0].startswith("durer: compiling the kernels of the BVH (about 15 s")
 
 
 @pytest.mark.parametrize("argv", [["-h"], ["render", "-h"], ["raycast", "-h"]])

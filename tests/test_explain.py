@@ -210,7 +210,8 @@ def test_drawn_segments_end_at_the_projected_hit_points():
     (["--pixel", "24", "0"], "--pixel 24 0 is outside the 24x16 image"),
     (["--pixel", "0", "-1"], "--pixel 0 -1 is outside the 24x16 image"),
     (["--pixel", "1"], "--pixel: expected 2 arguments"),
-    (["--pixel", "1", "1", "--draw", "out.jpg"], "unknown image extension '.jpg'"),
+    (["--pixel", "1", "1", "--draw", "out.webp"], "unknown image extension '.webp'"),
+    (["--pixel", "1", "1", "--draw", "out.hdr"], "--draw: 'out.hdr' must be an 8-bit image (.png, .tga"),
 ])
 def test_user_errors_exit_2(argv, message, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)

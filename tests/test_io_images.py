@@ -72,8 +72,8 @@ def test_pfm_header_and_bottom_up_rows(tmp_path):
 
 
 def test_unknown_extension(tmp_path):
-    with pytest.raises(UsageError, match="unknown image extension '.jpeg'"):
-        save_image(str(tmp_path / "x.jpeg"), np.zeros((1, 1, 3)))
+    with pytest.raises(UsageError, match="unknown image extension '.webp'"):
+        save_image(str(tmp_path / "x.webp"), np.zeros((1, 1, 3)))
     assert not list(tmp_path.iterdir())
 
 

@@ -158,22 +158,6 @@ def test_size_is_checked_before_allocating():
         durer.render(simple_scene(), 100000, 100000)
 
 
-def test_compile_notice_only_on_a_cold_cache(tmp_path, monkeypatch, capsys):
-    from durer.rendering import renderer
-
-    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
-    assert renderer.kernels_cold(str(tmp_path / "missing"))
-    assert renderer.kernels_cold(str(tmp_path))
-    for module in renderer.COLD_CHECK:
-        (tmp_path / f"{module}.kernel-12.py311.nbi").write_bytes(b"")
-    assert not renderer.kernels_cold(str(tmp_path))
-    monkeypatch.setattr(renderer, "kernels_cold", lambda: True)
-    durer.render(simple_scene(), 2, 2, quiet=False)
-    assert capsys.readouterr().err == "durer: compiling kernels (first run only) ...\n"
-    durer.render(simple_scene(), 2, 2)  # quiet (the default from Python): no notice
-    assert capsys.readouterr().err == ""
-
-
 def test_render_result_in_a_notebook():
     import io
 

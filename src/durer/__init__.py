@@ -11,7 +11,9 @@ import os
 import sys
 
 from .errors import DurerError, SceneError, UsageError
-from .rendering.renderer import RenderResult, render
+from .options import thread_count
+from .rendering.renderer import RenderResult
+from .rendering.renderer import render as _render
 from .scene import transforms
 from .scene.cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, PerspectiveCamera
 from .scene.graph import Group, Scene, Transform
@@ -38,6 +40,14 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
+
+
+def render(scene: Scene, width: int | None = None, height: int | None = None, *, nthreads: int | None = None,
+           **kwargs) -> RenderResult:
+    """Render `scene` at width x height (rendering/renderer.render: keyword arguments are RenderOptions fields,
+    `options=`, `quiet=`) on `nthreads` threads (0 or None: every core), as `--threads N` does."""
+    with thread_count(nthreads):
+        return _render(scene, width, height, **kwargs)
 
 
 def load(path: str | os.PathLike, mesh_path: list[str] | None = None, camera: str | int | None = None) -> Scene:

@@ -16,7 +16,7 @@ import time
 
 from .errors import DurerError, UsageError
 from .io.images import check_writable
-from .options import ACCELERATORS, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions
+from .options import ACCELERATORS, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions, thread_count
 
 EXIT_USAGE = 2
 
@@ -70,8 +70,8 @@ def _depth(values: list[str], flag: str) -> tuple[float, float, str]:
         near_f, far_f = _number(near), _number(far)
     except argparse.ArgumentTypeError as e:
         raise UsageError(f"{flag}: {e} (usage: {flag} NEAR FAR FILE)") from None
-    if near_f == far_f:
-        raise UsageError(f"{flag}: NEAR and FAR must differ")
+    if not near_f < far_f:
+        raise UsageError(f"{flag}: NEAR ({near}) must be less than FAR ({far}): near is drawn white, far black")
     return near_f, far_f, path
 
 
@@ -103,7 +103,23 @@ def course_parser() -> argparse.ArgumentParser:
     p.add_argument("-gui", action="store_true", help="(OpenGL preview: accepted and ignored)")
     p.add_argument("-tessellation", nargs=2, metavar=("THETA", "PHI"), help="(preview only: ignored)")
     p.add_argument("-gouraud", action="store_true", help="(preview only: ignored)")
+    p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
+                   help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
+    _add_threads(p)
     return p
+
+
+def _add_threads(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--threads", "-threads", type=_nonneg_int, default=None, metavar="N",
+                   help="render on N threads (default and 0: every core; pbrt's --nthreads, Mitsuba's -t)")
+
+
+def _validate(opts: RenderOptions) -> None:
+    """RenderOptions.validate as a UsageError: every option and size checked before anything is read."""
+    try:
+        opts.validate()
+    except ValueError as e:
+        raise UsageError(str(e)) from None
 
 
 def _course_options(a: argparse.Namespace) -> RenderOptions:
@@ -128,13 +144,29 @@ def _course_options(a: argparse.Namespace) -> RenderOptions:
     return opts
 
 
-def _zoom(values: list[str] | None, flag: str) -> tuple[str, int] | None:
+MAX_DEBUG_SIDE = 16384  # pixels a side of a -render_samples / -render_filter image (the course's are 20x)
+BYTES_PER_DEBUG_PIXEL = 100  # the float64 image, its 8-bit copy and NumPy's temporaries while drawing
+
+
+def _zoom(values: list[str] | None, flag: str, width: int, height: int) -> tuple[str, int] | None:
+    """FILE and ZOOM of a course debug image, ZOOM checked against the size of the image it makes."""
     if values is None:
         return None
     try:
-        return values[0], _positive_int(values[1])
+        zoom = _positive_int(values[1])
     except argparse.ArgumentTypeError as e:
         raise UsageError(f"{flag} ZOOM: {e}") from None
+    from .rendering.renderer import physical_memory
+
+    side = max(width, height) * zoom + 1
+    need = (width * zoom + 1) * (height * zoom + 1) * BYTES_PER_DEBUG_PIXEL
+    have = physical_memory()
+    if side > MAX_DEBUG_SIDE or (have and need > have):
+        most = (MAX_DEBUG_SIDE - 1) // max(width, height)
+        raise UsageError(f"{flag} ZOOM: a {width}x{height} image zoomed {zoom} times would be "
+                         f"{width * zoom}x{height * zoom} pixels; at most {MAX_DEBUG_SIDE} a side "
+                         f"({f'ZOOM up to {most} here' if most else 'use a smaller -size'})")
+    return values[0], zoom
 
 
 def _check_outputs(paths: list[str]) -> None:
@@ -146,10 +178,17 @@ def _check_outputs(paths: list[str]) -> None:
 
 def run_course(argv: list[str]) -> int:
     a = course_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return _run_course(a)
+
+
+def _run_course(a: argparse.Namespace) -> int:
     opts = _course_options(a)
+    _validate(opts)
+    width, height = a.size
     depth = _depth(a.depth, "-depth") if a.depth else None
-    samples_dbg = _zoom(a.render_samples, "-render_samples")
-    filter_dbg = _zoom(a.render_filter, "-render_filter")
+    samples_dbg = _zoom(a.render_samples, "-render_samples", width, height)
+    filter_dbg = _zoom(a.render_filter, "-render_filter", width, height)
     outputs = [p for p in (a.output, depth and depth[2], a.normals, samples_dbg and samples_dbg[0],
                            filter_dbg and filter_dbg[0]) if p]
     if not outputs:
@@ -160,10 +199,10 @@ def run_course(argv: list[str]) -> int:
         print(f"durer: {', '.join(ignored)} (the course's OpenGL preview) ignored: rendering to files only",
               file=sys.stderr)
     from . import load
-    from .rendering.renderer import render
+    from .rendering.renderer import check_size, render
 
-    scene = load(a.input)
-    width, height = a.size
+    check_size(width, height, opts.samples)
+    scene = load(a.input, mesh_path=a.mesh_path)
     if samples_dbg or filter_dbg:
         from .rendering.film_images import write_filter_image, write_samples_image
 
@@ -173,7 +212,6 @@ def run_course(argv: list[str]) -> int:
             write_filter_image(filter_dbg[0], width, height, opts, filter_dbg[1])
         if not (a.output or depth or a.normals):
             return 0
-    opts.validate()
     result = render(scene, width, height, options=opts, quiet=False)
     if a.output:
         result.save(a.output, course=True)
@@ -221,6 +259,7 @@ def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] |
                         "the lecture's loop over every object (kernels/brute.py; slow on large scenes)")
     p.add_argument("--mesh-path", action="append", default=[], metavar="DIR",
                    help="also look for mesh files in DIR (repeatable; also $DURER_MESH_PATH)")
+    _add_threads(p)
 
 
 def render_options(a: argparse.Namespace, scene_defaults: dict | None = None) -> RenderOptions:
@@ -249,9 +288,9 @@ def render_options(a: argparse.Namespace, scene_defaults: dict | None = None) ->
     opts["sampler"] = a.sampler or ("jittered" if samples > 1 else "uniform")
     try:
         options = RenderOptions(**opts)
-        options.validate()
     except ValueError as e:
         raise UsageError(str(e)) from None
+    _validate(options)
     return options
 
 
@@ -278,9 +317,14 @@ def render_parser() -> argparse.ArgumentParser:
 
 
 def run_render(argv: list[str]) -> int:
+    a = render_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return _run_render(a)
+
+
+def _run_render(a: argparse.Namespace) -> int:
     from .rendering.renderer import check_size, render
 
-    a = render_parser().parse_args(argv)
     render_options(a)  # a bad flag is reported before anything is read
     depth = _depth(a.depth, "--depth") if a.depth else None
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
@@ -332,7 +376,9 @@ def explain_parser() -> argparse.ArgumentParser:
 def run_explain(argv: list[str]) -> int:
     from .cli_explain import explain_command
 
-    return explain_command(explain_parser().parse_args(argv), render_options)
+    a = explain_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return explain_command(a, render_options)
 
 
 def preview_parser() -> argparse.ArgumentParser:
@@ -344,7 +390,9 @@ def preview_parser() -> argparse.ArgumentParser:
 def run_preview(argv: list[str]) -> int:
     from .preview.command import preview_command
 
-    return preview_command(preview_parser().parse_args(argv), render_options)
+    a = preview_parser().parse_args(argv)
+    with thread_count(a.threads):
+        return preview_command(a, render_options)
 
 
 def warmup_parser() -> argparse.ArgumentParser:

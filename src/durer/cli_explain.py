@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def explain_command(a: argparse.Namespace, render_options) -> int:
     """Run `durer explain` on parsed arguments; render_options turns them into RenderOptions."""
-    from .io.images import check_extension, write_atomic
+    from .io.images import EIGHT_BIT, check_extension, write_atomic
 
     opts = render_options(a)
     width, height = a.size
@@ -43,8 +43,8 @@ def explain_command(a: argparse.Namespace, render_options) -> int:
         raise UsageError(f"--pixel {x} {y} is outside the {width}x{height} image "
                          f"(X in 0..{width - 1} from the left, Y in 0..{height - 1} from the top)")
     if a.draw:
-        if check_extension(a.draw) not in (".png", ".bmp", ".tga", ".ppm"):
-            raise UsageError(f"--draw: '{a.draw}' must be an 8-bit image (.png, .bmp, .tga, .ppm)")
+        if check_extension(a.draw) not in EIGHT_BIT:
+            raise UsageError(f"--draw: '{a.draw}' must be an 8-bit image ({', '.join(EIGHT_BIT)})")
         folder = os.path.dirname(os.path.abspath(a.draw))
         if not os.path.isdir(folder):
             raise UsageError(f"cannot write '{a.draw}': folder '{folder}' does not exist")
@@ -63,7 +63,7 @@ def explain_command(a: argparse.Namespace, render_options) -> int:
         from .rendering.renderer import render
 
         image = draw_tree(tree, render(scene, width, height, options=opts).color, scene.camera)
-        fmt = {".png": "PNG", ".bmp": "BMP", ".tga": "TGA", ".ppm": "PPM"}[check_extension(a.draw)]
+        fmt = EIGHT_BIT[check_extension(a.draw)]
         write_atomic(a.draw, lambda f: image.save(f, format=fmt))
         print(f"durer: drew the ray tree over the image into {a.draw}", file=sys.stderr)
     return 0

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 SAMPLERS = ("uniform", "random", "jittered")
 FILTERS = ("box", "tent", "gaussian")
 ACCELERATORS = ("bvh", "brute")
 INTEGRATORS = ("auto", "raycast", "whitted", "path")
+# Sizes checked before any work starts (issue 25): a filter's reach in pixels (box/tent radius, gaussian 2 sigma:
+# the film visits (2 reach + 1)^2 pixels per sample, and gaussian:200 ran for minutes on a 32 x 32 image; the
+# course's widest is 2.3), and the uniform grid's cells (a few int64 arrays of that length; 1000^3 took 16.7 GB)
+MAX_FILTER_REACH = 16.0
+MAX_GRID_CELLS = 1 << 24
 
 
 @dataclass
@@ -35,7 +42,12 @@ class RenderOptions:
     rr_depth: int = 5             # path: Russian roulette from this depth on
     hide_emitters: bool = False   # path: camera rays do not see emitters (nor the environment)
 
+    def filter_reach(self) -> float:
+        """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent) or 2 sigma (gaussian)."""
+        return self.filter_radius * (2.0 if self.filter == "gaussian" else 1.0)
+
     def validate(self) -> None:
+        """ValueError naming the first option out of its range (sizes included: see MAX_FILTER_REACH)."""
         if self.bounces < 0:
             raise ValueError(f"bounces must not be negative, got {self.bounces}")
         if not self.weight >= 0:
@@ -48,6 +60,11 @@ class RenderOptions:
             raise ValueError(f"unknown filter {self.filter!r} (use one of {', '.join(FILTERS)})")
         if not self.filter_radius > 0:
             raise ValueError(f"filter radius must be positive, got {self.filter_radius}")
+        if not self.filter_reach() <= MAX_FILTER_REACH:
+            what = "sigma" if self.filter == "gaussian" else "radius"
+            most = MAX_FILTER_REACH / (2 if self.filter == "gaussian" else 1)
+            raise ValueError(f"{self.filter} filter {what} {self.filter_radius:g} is too wide: at most {most:g} "
+                             f"pixels (a wider filter is a blur; its cost grows with the square of the width)")
         if self.accel not in ACCELERATORS:
             raise ValueError(f"unknown accelerator {self.accel!r} (use one of {', '.join(ACCELERATORS)})")
         if self.grid is not None and self.accel != "bvh":
@@ -58,5 +75,36 @@ class RenderOptions:
             raise ValueError(f"max_depth must be -1 (unbounded) or a non-negative integer, got {self.max_depth}")
         if int(self.rr_depth) != self.rr_depth or self.rr_depth < 1:
             raise ValueError(f"rr_depth must be a positive integer, got {self.rr_depth}")
-        if self.grid is not None and (len(self.grid) != 3 or min(self.grid) < 1):
-            raise ValueError(f"grid needs three positive cell counts, got {self.grid}")
+        if self.grid is not None:
+            check_grid(self.grid)
+
+
+def check_grid(dims) -> None:
+    """ValueError unless dims are three positive cell counts of at most MAX_GRID_CELLS cells in all."""
+    if len(dims) != 3 or min(dims) < 1:
+        raise ValueError(f"grid needs three positive cell counts, got {tuple(dims)}")
+    cells = int(dims[0]) * int(dims[1]) * int(dims[2])
+    if cells > MAX_GRID_CELLS:
+        raise ValueError(f"grid {' x '.join(str(int(n)) for n in dims)} has {cells:,} cells: at most "
+                         f"{MAX_GRID_CELLS:,} (the course's largest has 52,800)")
+
+
+@contextmanager
+def thread_count(nthreads: int | None) -> Iterator[None]:
+    """Run the block on `nthreads` threads (0: every core Numba started with; None: leave it), restored after:
+    `--threads N` of every command and `durer.render(nthreads=N)`. numba.set_num_threads holds for the calling
+    thread and the kernels it starts (a worker thread takes the count over itself: preview/session.py)."""
+    if nthreads is None:
+        yield
+        return
+    if isinstance(nthreads, bool) or int(nthreads) != nthreads or nthreads < 0:
+        raise ValueError(f"nthreads must be 0 (all cores) or a positive integer, got {nthreads!r}")
+    import numba
+
+    most = numba.config.NUMBA_NUM_THREADS
+    old = numba.get_num_threads()
+    numba.set_num_threads(min(int(nthreads), most) if nthreads else most)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)

@@ -262,7 +262,8 @@ def sphere_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
     inv[:, 3, 3] = 1.0
     m = np.linalg.inv(inv)
     center = np.einsum("sij,sj->si", m[:, :3, :3], cs.sphere_center) + m[:, :3, 3]
-    extent = cs.sphere_radius[:, None] * np.linalg.norm(m[:, :3, :3], axis=2)
+    with np.errstate(over="ignore"):  # a sphere scaled by 1e200: its box is infinite, not a warning on stderr
+        extent = cs.sphere_radius[:, None] * np.linalg.norm(m[:, :3, :3], axis=2)
     return center - extent, center + extent
 
 

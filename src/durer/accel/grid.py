@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernels.course.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
+from ..options import check_grid
 from .compile import CompiledScene
 from .hits import Hits, per_ray
 from .stats import RayStats
@@ -58,8 +59,7 @@ class GridAccelerator:
     def __init__(self, cs: CompiledScene, dims: tuple[int, int, int], *, sphere_as_box: np.ndarray | None = None,
                  exact_triangles: bool = False, stats: RayStats | None = None):
         dims = tuple(int(n) for n in dims)
-        if len(dims) != 3 or min(dims) < 1:
-            raise ValueError(f"grid needs three positive cell counts, got {dims}")
+        check_grid(dims)  # count and size, before anything is allocated
         self.cs = cs
         cs = cs.flat  # the grid stores world-space triangles: instances flattened (same triangle ids)
         self.dims = np.array(dims, dtype=np.int64)

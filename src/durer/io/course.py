@@ -22,6 +22,8 @@ from ..scene.lights import DirectionalLight, PointLight
 from ..scene.materials import PhongMaterial
 from ..scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 from ..scene.textures import Checkerboard, Marble, Noise, Wood
+from ..scene.validate import MAX_NESTING
+from .files import find_mesh, mesh_search_path
 from .obj import read_obj
 
 _TOKEN = re.compile(r"[{}]|[^\s{}]+")
@@ -139,6 +141,7 @@ class _Parser:
         self.mesh_path = mesh_path
         self.num_materials: int | None = None
         self.current_material: int | None = None
+        self.depth = 0  # Groups and Transforms open around the object being read (limited to MAX_NESTING)
 
     # --- top level ---------------------------------------------------------------------------------------
     def scene(self) -> Scene:
@@ -268,6 +271,8 @@ class _Parser:
             v, lines = _fields(t, kind, spec, (), line)
             if "indexOfRefraction" in v and not v["indexOfRefraction"] > 0:
                 raise t.error("indexOfRefraction must be positive", lines["indexOfRefraction"])
+            if v.get("exponent", 0) < 0:
+                raise t.error(f"exponent must not be negative, got {v['exponent']:g}", lines["exponent"])
             names = {"diffuseColor": "diffuse_color", "specularColor": "specular_color", "exponent": "exponent",
                      "reflectiveColor": "reflective_color", "transparentColor": "transparent_color",
                      "indexOfRefraction": "index_of_refraction"}
@@ -301,18 +306,28 @@ class _Parser:
         return tex
 
     def _check_texture_cycles(self, mats: list, line: int) -> None:
-        def visit(i: int, stack: tuple[int, ...]) -> None:
-            m = mats[i]
-            if isinstance(m, PhongMaterial):
-                return
-            if i in stack:
-                raise self.t.error(f"material {i} blends itself (a cycle of material indices)",
-                                   getattr(m, "_line", line))
-            visit(m.material1, stack + (i,))
-            visit(m.material2, stack + (i,))
-
-        for i in range(len(mats)):
-            visit(i, ())
+        """A texture blends two materials by index; following those indices must end at Phong materials. Walked
+        with an explicit stack (a chain of thousands of textures must not overflow Python's)."""
+        done: set[int] = set()  # materials whose every blend ends at Phong materials
+        for root in range(len(mats)):
+            on_path: set[int] = set()
+            stack: list[tuple[int, int]] = [(root, 0)]  # (material, how many of its two blends were followed)
+            while stack:
+                i, k = stack.pop()
+                m = mats[i]
+                if isinstance(m, PhongMaterial) or i in done:
+                    continue
+                if k == 0:
+                    if i in on_path:
+                        raise self.t.error(f"material {i} blends itself (a cycle of material indices)",
+                                           getattr(m, "_line", line))
+                    on_path.add(i)
+                if k < 2:
+                    stack.append((i, k + 1))
+                    stack.append(((m.material1, m.material2)[k], 0))
+                else:
+                    on_path.discard(i)
+                    done.add(i)
 
     # --- objects ---------------------------------------------------------------------------------------------
     def group(self, line: int) -> Group:
@@ -349,14 +364,8 @@ class _Parser:
     def object(self, kind: str, line: int):
         t = self.t
         t.expect("{", f"after {kind}")
-        if kind == "Group":
-            return self.group(line)
-        if kind == "Transform":
-            matrix, obj = self.transformations(line, allow_object=True)
-            try:
-                return Transform(matrix, obj)
-            except ValueError as e:
-                raise t.error(str(e), line) from None
+        if kind in ("Group", "Transform"):
+            return self.nested(kind, line)
         material = self._material_for(kind, line)
         if kind == "Sphere":
             v, lines = _fields(t, kind, {"center": _vec3, "radius": _num}, ("center", "radius"), line)
@@ -374,7 +383,10 @@ class _Parser:
             return Triangle(v["vertex0"], v["vertex1"], v["vertex2"], material)
         # TriangleMesh
         v, lines = _fields(t, kind, {"obj_file": _word}, ("obj_file",), line)
-        path = self._find_mesh(v["obj_file"], lines["obj_file"])
+        try:
+            path = find_mesh(v["obj_file"], self.path, self.mesh_path)
+        except SceneError as e:
+            raise t.error(e.message, lines["obj_file"]) from None
         if path.lower().endswith(".obj"):
             vertices, faces = read_obj(path)  # the course's OBJ subset, with file:line errors
         else:  # any other model format trimesh reads (PLY, STL, OFF, glTF, ...)
@@ -383,23 +395,30 @@ class _Parser:
             vertices, faces = read_mesh(path)
         return TriangleMesh(vertices, faces, material, source=path)
 
+    def nested(self, kind: str, line: int) -> Group | Transform:
+        """A Group or Transform inside another: the parser recurses, so nesting deeper than MAX_NESTING levels
+        is a SceneError at the level that passes it (no scene needs it; Python's stack would overflow)."""
+        t = self.t
+        if self.depth >= MAX_NESTING:
+            raise t.error(f"Groups and Transforms nested more than {MAX_NESTING} levels deep", line)
+        self.depth += 1
+        try:
+            if kind == "Group":
+                return self.group(line)
+            matrix, obj = self.transformations(line, allow_object=True)
+            try:
+                return Transform(matrix, obj)
+            except ValueError as e:
+                raise t.error(str(e), line) from None
+        finally:
+            self.depth -= 1
+
     def _material_for(self, kind: str, line: int) -> int:
         if self.current_material is not None:
             return self.current_material
         if not self.num_materials:
             raise self.t.error(f"{kind} has no material: the scene defines no Materials", line)
         return 0
-
-    def _find_mesh(self, name: str, line: int) -> str:
-        here = os.path.join(os.path.dirname(os.path.abspath(self.path)), name)
-        candidates = [here, name] + [os.path.join(d, name) for d in self.mesh_path]
-        for candidate in candidates:
-            if os.path.isfile(candidate):
-                return candidate
-        where = f"looked in {os.path.dirname(here) or '.'}, in the working directory {os.getcwd()}"
-        where += f" and in {os.pathsep.join(self.mesh_path)}" if self.mesh_path else " and in no other folder"
-        raise self.t.error(f"mesh file '{name}' not found ({where}); add folders to search with "
-                           f"--mesh-path DIR or the DURER_MESH_PATH environment variable", line)
 
     def transformations(self, line: int, allow_object: bool):
         """Transformations composed in file order (M = M @ T), then (if allowed) exactly one object and '}'."""
@@ -456,13 +475,6 @@ class _Parser:
         if allow_object and obj is None:
             raise t.error("Transform has no object", line)
         return m, obj
-
-
-def mesh_search_path(extra: list[str] | None = None) -> list[str]:
-    """Folders searched for mesh files after the scene's own folder and the working directory:
-    `extra`, then the entries of the DURER_MESH_PATH environment variable (os.pathsep-separated)."""
-    env = [d for d in os.environ.get("DURER_MESH_PATH", "").split(os.pathsep) if d]
-    return list(extra or []) + env
 
 
 def load_course_scene(path: str | os.PathLike, mesh_path: list[str] | None = None) -> Scene:

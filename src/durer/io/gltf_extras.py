@@ -48,6 +48,44 @@ def read_gltf_json(path: str) -> dict:
     return gltf
 
 
+def check_node_graph(gltf: dict, path: str) -> None:
+    """SceneError naming the node if the node hierarchy is not a set of trees, as glTF requires: a child index
+    that names no node, or a node that is its own descendant (trimesh renders such a file silently, some nodes
+    missing). Walked with an explicit stack."""
+    nodes = gltf.get("nodes", [])
+    if not isinstance(nodes, list):
+        raise SceneError("malformed glTF: 'nodes' is not a list", path)
+    children: list[list[int]] = []
+    for i, node in enumerate(nodes):
+        kids = node.get("children", []) if isinstance(node, dict) else None
+        if not isinstance(kids, list) or not all(isinstance(c, int) and not isinstance(c, bool) for c in kids):
+            raise SceneError(f"malformed glTF: node {i}'s children are not a list of node indices", path)
+        bad = [c for c in kids if not 0 <= c < len(nodes)]
+        if bad:
+            raise SceneError(f"malformed glTF: node {i} has child {bad[0]}, but the file has {len(nodes)} nodes",
+                             path)
+        children.append(kids)
+    state = [0] * len(nodes)  # 0 not visited, 1 on the current path, 2 done
+    for root in range(len(nodes)):
+        if state[root]:
+            continue
+        stack = [(root, 0)]
+        state[root] = 1
+        while stack:
+            i, k = stack.pop()
+            if k == len(children[i]):
+                state[i] = 2
+                continue
+            stack.append((i, k + 1))
+            c = children[i][k]
+            if state[c] == 1:
+                what = "its own child" if c == i else f"a descendant of its child (via node {i})"
+                raise SceneError(f"malformed glTF: node {c} is {what}: the node hierarchy has a cycle", path)
+            if state[c] == 0:
+                state[c] = 1
+                stack.append((c, 0))
+
+
 def _local_matrix(node: dict) -> np.ndarray:
     """A node's 4x4 local transform: its column-major `matrix`, or T @ R @ S."""
     if "matrix" in node:

@@ -1,7 +1,7 @@
 """Image output: colour, depth and normal visualisations, written atomically by file extension.
 
-8-bit formats (PNG, TGA, PPM, BMP) go through Pillow; `.npy`, `.pfm` and `.exr` (OpenEXR, through the optional
-`openexr` package: `pip install durer[exr]`) keep the raw float arrays.
+8-bit formats (PNG, TGA, PPM, BMP, JPEG, TIFF) go through Pillow; `.npy`, `.pfm`, `.hdr` (Radiance RGBE) and `.exr`
+(OpenEXR, through the optional `openexr` package: `pip install durer[exr]`) keep the float values.
 Course outputs are quantised as the course's Image class does: clamp to [0, 1], multiply by 255, truncate
 (no transfer curve). Native outputs are sRGB-encoded and rounded, as image viewers expect.
 """
@@ -12,14 +12,17 @@ import os
 import tempfile
 
 import numpy as np
-from PIL import Image, TgaImagePlugin  # noqa: F401
+from PIL import Image, TgaImagePlugin, TiffImagePlugin  # noqa: F401
 
 from ..errors import UsageError
 
-# TgaImagePlugin is imported to register TGA: Pillow would otherwise import every plugin (~45 ms) on the
-# first TGA save; PNG, PPM and BMP are registered by Image.preinit.
-EIGHT_BIT = {".png": "PNG", ".tga": "TGA", ".ppm": "PPM", ".bmp": "BMP"}
-RAW = (".npy", ".pfm", ".exr")
+# TgaImagePlugin and TiffImagePlugin are imported to register TGA and TIFF: Pillow would otherwise import every
+# plugin (~45 ms) on the first save; PNG, PPM, BMP and JPEG are registered by Image.preinit.
+EIGHT_BIT = {".png": "PNG", ".tga": "TGA", ".ppm": "PPM", ".bmp": "BMP", ".jpg": "JPEG", ".jpeg": "JPEG",
+             ".tif": "TIFF", ".tiff": "TIFF"}
+# Pillow's default JPEG (quality 75, chroma at half resolution) blurs a render's edges and coloured detail
+SAVE_ARGS = {"JPEG": {"quality": 95, "subsampling": 0}}
+RAW = (".npy", ".pfm", ".hdr", ".exr")
 EXTENSIONS = tuple(EIGHT_BIT) + RAW
 
 
@@ -64,6 +67,33 @@ def _write_pfm(f, data: np.ndarray) -> None:
     f.write(np.ascontiguousarray(data[::-1]).tobytes())  # PFM rows run bottom to top
 
 
+def rgbe(data: np.ndarray) -> np.ndarray:
+    """Float RGB (H, W, 3), or grey (H, W), as Radiance RGBE bytes (H, W, 4): a shared exponent e = frexp of the
+    largest channel, mantissas channel * 256 / 2^e (Ward, Graphics Gems II). Negative and NaN values are 0;
+    values above 1e38 (infinities too) are 1e38, near the format's largest (exponent byte 255)."""
+    rgb = np.asarray(data, dtype=np.float64)
+    if rgb.ndim == 2:
+        rgb = np.repeat(rgb[:, :, None], 3, axis=2)
+    rgb = np.clip(np.nan_to_num(rgb, nan=0.0, posinf=1e38, neginf=0.0), 0.0, 1e38)
+    top = rgb.max(axis=2)
+    mantissa, exponent = np.frexp(top)
+    out = np.zeros(rgb.shape[:2] + (4,), dtype=np.uint8)
+    lit = top >= 1e-32
+    scale = np.where(lit, mantissa * 256.0 / np.where(lit, top, 1.0), 0.0)
+    out[..., :3] = np.clip(np.floor(rgb * scale[..., None]), 0, 255).astype(np.uint8)
+    out[..., 3] = np.where(lit, np.clip(exponent + 128, 0, 255), 0).astype(np.uint8)
+    return out
+
+
+def _write_hdr(f, data: np.ndarray) -> None:
+    """A Radiance .hdr file: its header, then the RGBE pixels flat, top row first (uncompressed scanlines,
+    which every reader takes)."""
+    pixels = rgbe(data)
+    h, w = pixels.shape[:2]
+    f.write(f"#?RADIANCE\n# written by durer\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode("ascii"))
+    f.write(np.ascontiguousarray(pixels).tobytes())
+
+
 def _openexr():
     try:
         import OpenEXR
@@ -100,8 +130,10 @@ def _umask() -> int:
 def check_writable(path: str) -> None:
     """Raise unless an image can be written at `path`, naming it: UsageError for an unknown extension, and
     FileNotFoundError (missing folder), IsADirectoryError (a folder in the way) or PermissionError (a folder or
-    file we may not write) with a one-line message. Called before rendering, so nothing is rendered in vain."""
-    check_extension(path)
+    file we may not write) with a one-line message, and UsageError if the format needs a package that is not
+    installed (.exr: openexr). Called before rendering, so nothing is rendered in vain."""
+    if check_extension(path) == ".exr":
+        _openexr()
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"cannot write '{path}': folder '{folder}' does not exist")
@@ -151,6 +183,9 @@ def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:
     if ext == ".pfm":
         write_atomic(path, lambda f: _write_pfm(f, data))
         return
+    if ext == ".hdr":
+        write_atomic(path, lambda f: _write_hdr(f, data))
+        return
     if ext == ".exr":
         _write_exr(path, data)
         return
@@ -158,7 +193,8 @@ def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:
     if pixels.ndim == 2:
         pixels = np.repeat(pixels[:, :, None], 3, axis=2)
     image = Image.fromarray(np.ascontiguousarray(pixels), mode="RGB")
-    write_atomic(path, lambda f: image.save(f, format=EIGHT_BIT[ext]))
+    fmt = EIGHT_BIT[ext]
+    write_atomic(path, lambda f: image.save(f, format=fmt, **SAVE_ARGS.get(fmt, {})))
 
 
 def read_hdr(path: str) -> np.ndarray:

@@ -31,7 +31,8 @@ from ..scene.graph import Group, Scene, Transform
 from ..scene.lights import DirectionalLight
 from ..scene.materials import PBRMaterial
 from ..scene.shapes import TriangleMesh
-from .gltf_extras import pick_camera, read_cameras, read_gltf_json, read_lights
+from .gltf_extras import check_node_graph, pick_camera, read_cameras, read_gltf_json, read_lights
+from .obj import check_obj_faces
 
 GLTF = (".gltf", ".glb")
 BACKGROUND = (0.06, 0.07, 0.09)  # linear: a dark blue-grey, so light and dark models both stand out
@@ -49,15 +50,35 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
 
 
 def _trimesh_load(path: str):
-    """trimesh's scene of a file, or SceneError naming the file (trimesh raises many kinds of errors)."""
+    """trimesh's scene of a file, or SceneError naming the file (trimesh raises many kinds of errors). What trimesh
+    lets through is checked here: OBJ face indices (0, or past the vertices read so far: `check_obj_faces`), a
+    glTF node hierarchy with a cycle, and faces whose indices lie outside their mesh's vertices (PLY, OFF)."""
     import trimesh
 
     if not os.path.isfile(path):
         raise SceneError("model file not found" if not os.path.exists(path) else "model path is not a file", path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".obj":
+        check_obj_faces(path)
+    elif ext in GLTF:
+        try:
+            gltf = read_gltf_json(path)
+        except SceneError:
+            gltf = None  # not glTF at all: trimesh's own message says why
+        if gltf is not None:
+            check_node_graph(gltf, path)
     try:
-        return trimesh.load(path, force="scene", process=False)
+        tm = trimesh.load(path, force="scene", process=False)
     except Exception as e:  # noqa: BLE001  (trimesh's readers raise anything from KeyError to struct.error)
         raise SceneError(f"cannot read model: {type(e).__name__}: {e}".splitlines()[0], path) from None
+    for name, geom in tm.geometry.items():
+        faces = np.asarray(getattr(geom, "faces", np.zeros((0, 3), np.int64)))
+        if len(faces) and (faces.min() < 0 or faces.max() >= len(geom.vertices)):
+            k = int(np.flatnonzero(((faces < 0) | (faces >= len(geom.vertices))).any(axis=1))[0])
+            what = f" (mesh {name!r})" if len(tm.geometry) > 1 else ""
+            raise SceneError(f"face {k}{what} uses vertices {faces[k].tolist()}, but the mesh has "
+                             f"{len(geom.vertices)} vertices (0..{len(geom.vertices) - 1})", path)
+    return tm
 
 
 def _material(geom, gltf: bool) -> PBRMaterial:

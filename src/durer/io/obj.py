@@ -60,3 +60,29 @@ def read_obj(path: str) -> tuple[np.ndarray, np.ndarray]:
         bad = int(np.argwhere(~np.isfinite(v).all(axis=1))[0, 0])
         raise SceneError(f"vertex {bad + 1} is not finite", path)
     return v, np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+
+
+def check_obj_faces(path: str) -> None:
+    """SceneError(file, line) at the first face of an OBJ file whose vertex index is 0 or names no vertex (OBJ
+    counts from 1 through the file's vertices; negative indices count back from the face): trimesh reads such
+    faces silently, wrongly. Only the `v` and `f` statements are looked at."""
+    try:
+        with open(path, "rb") as f:
+            lines = [line.lstrip() for line in f.read().splitlines()]
+    except OSError as e:
+        raise SceneError(f"cannot read mesh file: {e.strerror}", path) from None
+    total = sum(1 for line in lines if line[:2] in (b"v ", b"v\t"))
+    seen = 0
+    for lineno, line in enumerate(lines, 1):
+        if line[:2] in (b"v ", b"v\t"):
+            seen += 1
+        elif line[:2] in (b"f ", b"f\t"):
+            for corner in line.split(b"#", 1)[0].split()[1:]:
+                try:
+                    i = int(corner.split(b"/")[0])
+                except ValueError:
+                    raise SceneError(f"face index is not an integer: {corner.decode(errors='replace')!r}", path,
+                                     lineno) from None
+                if i == 0 or i > total or i < -seen:
+                    raise SceneError(f"face index {i} out of range (OBJ counts vertices from 1; the file has "
+                                     f"{total} vertices, {seen} before this line)", path, lineno)

@@ -202,7 +202,12 @@ class PreviewSession:
     # --- the worker --------------------------------------------------------------------------------------
     def start(self) -> PreviewSession:
         if self._thread is None:
-            self._thread = threading.Thread(target=self._run, name="durer-preview-render", daemon=True)
+            import numba
+
+            # Numba's thread count is per thread: the worker renders with the caller's (`--threads N`)
+            threads = numba.get_num_threads()
+            self._thread = threading.Thread(target=self._run, args=(threads,), name="durer-preview-render",
+                                            daemon=True)
             self._thread.start()
         return self
 
@@ -213,7 +218,11 @@ class PreviewSession:
         if self._thread is not None:
             self._thread.join(timeout)
 
-    def _run(self) -> None:
+    def _run(self, threads: int | None = None) -> None:
+        if threads is not None:
+            import numba
+
+            numba.set_num_threads(threads)
         rendered = -1
         last_poll = 0.0
         while True:

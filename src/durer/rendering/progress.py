@@ -3,7 +3,6 @@ the kernels of a cold cache."""
 
 from __future__ import annotations
 
-import os
 import sys
 
 
@@ -34,21 +33,3 @@ def progress(total: int, quiet: bool, unit: str = "ray"):
     return tqdm(total=total, unit=unit, unit_scale=unit == "ray", delay=1.0, disable=False, leave=False,
                 desc="rendering", file=sys.stderr)
 
-
-COLD_CHECK = ("build", "trace")  # kernel modules every render compiles and caches
-
-
-def kernels_cold(folder: str | None = None) -> bool:
-    """Is Numba's on-disk cache of the kernels still empty (the first render will compile for many seconds)?
-    Cheap: looks for the cache's index files (*.nbi) beside the kernels, in kernels/bvh/__pycache__."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return False  # a cache elsewhere: cannot tell cheaply, stay quiet
-    if folder is None:
-        from ..kernels import bvh
-
-        folder = os.path.join(os.path.dirname(bvh.__file__), "__pycache__")
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return True
-    return not all(any(n.startswith(m + ".") and n.endswith(".nbi") for n in names) for m in COLD_CHECK)

@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 
 from ..options import RenderOptions
@@ -12,15 +11,15 @@ from ..scene.graph import Scene
 from .arguments import make_options, parse_filter, resolve
 from .context import RenderContext, make_context
 from .integrators import integrator_for
+from .kernel_cache import compile_notice
 from .memory import BYTES_PER_PIXEL, check_size, memory_needed
-from .progress import COLD_CHECK, kernels_cold
 from .progress import progress as _progress
 from .result import RenderResult
 from .units import finish, job_for, run
 
 # the names the command line, the preview and the tests take from here (each lives in its own module)
-__all__ = ["BYTES_PER_PIXEL", "COLD_CHECK", "RenderResult", "check_size", "choose_integrator", "kernels_cold",
-           "make_context", "make_options", "memory_needed", "parse_filter", "render", "render_in"]
+__all__ = ["BYTES_PER_PIXEL", "RenderResult", "check_size", "choose_integrator", "make_context", "make_options",
+           "memory_needed", "parse_filter", "render", "render_in"]
 
 
 def choose_integrator(options: RenderOptions):
@@ -37,8 +36,8 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
     width, height, options = resolve(scene, width, height, options, kwargs)
     check_size(width, height, options.samples, options)
     start = time.perf_counter()
-    if not quiet and kernels_cold():
-        print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
+    if not quiet:  # one line saying what compiles and for how long, when Numba's cache lacks it (kernel_cache.py)
+        compile_notice(options, scene)
     return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
 
 

@@ -37,6 +37,8 @@ class PhongMaterial:
                 setattr(self, name, float(getattr(self, name)))
             except (TypeError, ValueError):
                 raise ValueError(f"{kind} {name} must be a number, got {getattr(self, name)!r}") from None
+        if not 0 <= self.exponent < np.inf:  # cos^exponent: a negative one divides by zero at grazing angles
+            raise ValueError(f"{kind} exponent must be finite and not negative, got {self.exponent:g}")
 
 
 Material = PhongMaterial

@@ -16,6 +16,9 @@ LIGHTS = (DirectionalLight, PointLight, SpotLight)
 SHAPES = (Sphere, Plane, Triangle, TriangleMesh)
 TEXTURES = (Checkerboard, Noise, Marble, Wood)
 PHYSICAL = (Surface, *BSDF.__args__)  # the path tracer's materials (scene/bsdfs.py)
+# Groups and Transforms inside each other, at most: the compiler walks the tree recursively (accel/compile.py), and
+# no real scene comes near it (the course's deepest is 4); deeper is a SceneError (files) or ValueError (Python)
+MAX_NESTING = 200
 
 
 def _names(types: tuple) -> str:
@@ -24,7 +27,8 @@ def _names(types: tuple) -> str:
 
 def check_scene(scene: Scene) -> None:
     """Raise ValueError naming the first wrong object: types of the camera, lights, materials and objects, and
-    every material index (shapes' and textures') within `scene.materials`."""
+    every material index (shapes' and textures') within `scene.materials`; a Group or Transform that contains
+    itself, and nesting deeper than MAX_NESTING."""
     if not isinstance(scene, Scene):
         raise ValueError(f"expected a durer.Scene, got {type(scene).__name__}")
     if not isinstance(scene.camera, CAMERAS):
@@ -52,15 +56,23 @@ def check_scene(scene: Scene) -> None:
             raise ValueError(f"scene.materials[{i}]: expected a PhongMaterial, a solid texture ({_names(TEXTURES)}) "
                              f"or a physically based material ({_names(PHYSICAL)}), got {type(mat).__name__}")
 
-    stack = [(scene.group, "scene.group")]
+    # (object, where, the ids of the Groups and Transforms above it): a shared subtree is fine, a cycle is not
+    stack: list[tuple[object, str, tuple[int, ...]]] = [(scene.group, "scene.group", ())]
     while stack:
-        obj, where = stack.pop()
+        obj, where, above = stack.pop()
+        if isinstance(obj, (Group, Transform)):
+            if id(obj) in above:
+                raise ValueError(f"{where}: a {type(obj).__name__} that contains itself (a cycle in the scene tree)")
+            if len(above) >= MAX_NESTING:
+                raise ValueError(f"scene.group: Groups and Transforms nested more than {MAX_NESTING} levels deep")
+            above = above + (id(obj),)
         if isinstance(obj, Group):
             if not isinstance(obj.objects, (list, tuple)):
                 raise ValueError(f"{where}.objects: expected a list, got {type(obj.objects).__name__}")
-            stack.extend((child, f"{where}.objects[{k}]") for k, child in reversed(list(enumerate(obj.objects))))
+            stack.extend((child, f"{where}.objects[{k}]", above)
+                         for k, child in reversed(list(enumerate(obj.objects))))
         elif isinstance(obj, Transform):
-            stack.append((obj.object, f"{where}.object"))
+            stack.append((obj.object, f"{where}.object", above))
         elif isinstance(obj, SHAPES):
             index(obj.material, f"{where} ({type(obj).__name__})")
         else:
