@@ -5,7 +5,7 @@
 const $ = (id) => document.getElementById(id);
 const image = $("image"), overlay = $("overlay"), stage = $("stage");
 const COLORS = { camera: "#ffffff", shadow: "#28dc28", blocked: "#145a14", reflection: "#ff3232",
-                 refraction: "#3c8cff" };
+                 refraction: "#3c8cff", bounce: "#ffa028" };
 let ws = null, state = null, tree = null, zoomScale = 1, frameSeq = 0;
 
 function send(message) { if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message)); }
