@@ -30,8 +30,8 @@ from ..options import RenderOptions
 from ..scene.cameras import image_camera
 from ..scene.graph import Scene
 from . import film
-from .raycaster import RenderContext, raycast, surface
 from .explain_path import explain_path_pixel
+from .raycaster import RenderContext, raycast, surface
 from .renderer import PHYSICAL, choose_integrator, make_context, make_options
 from .shading import light_directions, phong
 from .texturing import leaf_weights

@@ -105,7 +105,7 @@ def tree_text(tree) -> str:
     for i, node in enumerate(tree.rays):
         s = node["sample"]
         index = f" (sample index {s['index']})" if "index" in s else ""
-        lines.append(f"sample {i + 1}/{len(tree.rays)}{index} at film ({s['film'][0]:.4f}, {s['film'][1]:.4f}) of pixel "
-                     f"({s['pixel'][0]}, {s['pixel'][1]}), filter weight {s['filter_weight']:.4g}")
+        lines.append(f"sample {i + 1}/{len(tree.rays)}{index} at film ({s['film'][0]:.4f}, {s['film'][1]:.4f}) "
+                     f"of pixel ({s['pixel'][0]}, {s['pixel'][1]}), filter weight {s['filter_weight']:.4g}")
         lines += _node_lines(node, 1)
     return "\n".join(lines)

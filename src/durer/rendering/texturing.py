@@ -75,8 +75,8 @@ def blend_weight(texture, points: np.ndarray) -> np.ndarray:
 def leaf_weights(materials: list, mat: np.ndarray, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Resolve material ids (N,) at world points (N,3) into [(Phong material id (N,), weight (N,)), ...].
 
-    The weights of every point sum to 1; a material that is not a texture gives [(mat, ones)]. Nested textures are resolved
-    recursively (the parser rejects cycles). Pairs where a point has no share carry weight 0 there.
+    The weights of every point sum to 1; a material that is not a texture gives [(mat, ones)]. Nested textures are
+    resolved recursively (the parser rejects cycles). Pairs where a point has no share carry weight 0 there.
     """
     mat = np.asarray(mat, dtype=np.int64)
     n = len(mat)

@@ -28,6 +28,7 @@ function receive(m) {
 
 function showState(m) {
   state = m;
+  if ($("status").textContent.startsWith("connecting")) $("status").textContent = "rendering\u2026";
   document.body.dataset.camera = JSON.stringify(m.camera);
   document.body.dataset.generation = m.generation;
   if (image.width !== m.width || image.height !== m.height) {
