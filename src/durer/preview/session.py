@@ -363,7 +363,8 @@ class PreviewSession:
                     if self.error is None:
                         self._send({"type": "error", "message": None})
                 message = {"type": "frame", "generation": generation, "level": i, "levels": len(levels),
-                           "final": final, "frame_width": w, "frame_height": h, "width": self.width,
+                           "final": final, "samples": opts.samples, "frame_width": w, "frame_height": h,
+                           "width": self.width,
                            "height": self.height, "seconds": time.perf_counter() - start}
                 self._last = (message, result)
                 self._send(self._encoded(message, result))

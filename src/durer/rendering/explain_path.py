@@ -169,7 +169,8 @@ def _bsdf_name(material) -> str:
         return "none"
     bsdf = getattr(material, "bsdf", None)
     name = type(bsdf if bsdf is not None else material).__name__
-    return name + (" + area emitter" if np.any(np.asarray(getattr(material, "emission", 0.0)) > 0) else "")
+    radiance = getattr(material, "radiance", None)
+    return name + (" + area emitter" if radiance is not None and np.any(np.asarray(radiance) > 0) else "")
 
 
 def explain_path_pixel(ctx: RenderContext, width: int, height: int, x: int, y: int) -> list[dict]:

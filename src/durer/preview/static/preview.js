@@ -56,9 +56,11 @@ function showFrame(m) {
     image.dataset.level = m.level;
     image.dataset.mode = m.mode;
     image.dataset.final = m.final ? "1" : "0";
+    image.dataset.samples = m.samples;
     image.dataset.camera = JSON.stringify(m.camera);  // the camera of the frame shown (the state's may be newer)
     document.body.dataset.camera = JSON.stringify(m.camera);
     $("status").textContent = `${m.final ? "done" : "refining"}: ${m.frame_width}x${m.frame_height}` +
+      `, ${m.samples} spp` +
       ` (level ${m.level + 1}/${m.levels}, ${m.seconds.toFixed(2)} s)`;
   };
   img.src = "data:image/png;base64," + m.png;
