@@ -334,8 +334,7 @@ def _run_render(a: argparse.Namespace) -> int:
         check_size(a.size[0], a.size[1], a.samples or 1)
     scene = load(a.scene, mesh_path=a.mesh_path, camera=a.camera)
     options = render_options(a, scene.render_defaults)
-    film = scene.render_defaults
-    size = a.size or ((film["width"], film["height"]) if "width" in film else _default_size(scene.camera))
+    size = scene_size(a, scene)
     start = time.perf_counter()
     result = render(scene, size[0], size[1], options=options, quiet=a.quiet)
     result.save(a.output, course=a.linear)
@@ -347,6 +346,13 @@ def _run_render(a: argparse.Namespace) -> int:
         print(f"durer: wrote {a.output} ({size[0]}x{size[1]}, {time.perf_counter() - start:.2f} s)",
               file=sys.stderr)
     return 0
+
+
+def scene_size(a: argparse.Namespace, scene) -> tuple[int, int]:
+    """The image size of a rendering command: --size, else the scene's film, else _default_size (the same for
+    render, explain and preview, so a pixel and --samples mean the same in all three)."""
+    film = scene.render_defaults or {}
+    return a.size or ((film["width"], film["height"]) if "width" in film else _default_size(scene.camera))
 
 
 def _default_size(camera, longer: int = 512) -> tuple[int, int]:
@@ -363,7 +369,8 @@ def _subcommand_parser(module) -> argparse.ArgumentParser:
     flags every rendering command shares."""
     p = _Parser(allow_abbrev=False, **module.PARSER)
     module.add_arguments(p)
-    add_render_flags(p)
+    add_render_flags(p, size_default=None, size_help="image width and height in pixels (default: as durer render: "
+                     "the scene's film, else 512 512)")
     return p
 
 
@@ -378,7 +385,7 @@ def run_explain(argv: list[str]) -> int:
 
     a = explain_parser().parse_args(argv)
     with thread_count(a.threads):
-        return explain_command(a, render_options)
+        return explain_command(a, render_options, scene_size)
 
 
 def preview_parser() -> argparse.ArgumentParser:
@@ -392,7 +399,7 @@ def run_preview(argv: list[str]) -> int:
 
     a = preview_parser().parse_args(argv)
     with thread_count(a.threads):
-        return preview_command(a, render_options)
+        return preview_command(a, render_options, scene_size)
 
 
 def warmup_parser() -> argparse.ArgumentParser:

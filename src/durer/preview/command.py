@@ -35,14 +35,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-browser", action="store_true", help="only print the address, do not open a browser")
 
 
-def preview_command(a: argparse.Namespace, render_options) -> int:
-    """Run `durer preview` on parsed arguments until interrupted."""
-    opts = render_options(a)
-    opts.validate()
+def preview_command(a: argparse.Namespace, render_options, scene_size) -> int:
+    """Run `durer preview` on parsed arguments until interrupted; render_options and scene_size make the options
+    and the image size as `durer render` would from the same flags and scene."""
+    render_options(a)  # a bad flag is reported before anything is read
     if not os.path.isfile(a.scene):
         raise UsageError(f"{a.scene}: no such scene file")
     if not 0 <= a.port <= 65535:
         raise UsageError(f"--port: expected 0 to 65535, got {a.port}")
+    from ..errors import DurerError
+    from ..io.loaders import load_scene
+
+    try:  # the scene's own defaults (a Mitsuba scene's integrator, samples, film), as `durer render` applies them
+        scene = load_scene(a.scene, a.mesh_path)
+    except (DurerError, ValueError, OSError):  # a malformed file: the page shows its FILE:LINE until it is fixed
+        opts, size = render_options(a), a.size or (512, 512)
+    else:
+        opts, size = render_options(a, scene.render_defaults), scene_size(a, scene)
     try:
         from .server import PreviewServer
     except ImportError as e:
@@ -50,7 +59,7 @@ def preview_command(a: argparse.Namespace, render_options) -> int:
                          "pip install 'durer[preview]'") from None
     from .session import PreviewSession
 
-    session = PreviewSession(a.scene, a.size[0], a.size[1], opts, mesh_path=a.mesh_path)
+    session = PreviewSession(a.scene, size[0], size[1], opts, mesh_path=a.mesh_path)
     try:
         server = PreviewServer(session, a.host, a.port)
     except OSError as e:

@@ -28,7 +28,7 @@ from ..errors import DurerError
 from ..io.images import depth_visualization, encode_srgb, normal_visualization, quantize_course
 from ..io.loaders import load_scene
 from ..options import RenderOptions
-from ..rendering.explain import explain_in
+from ..rendering.explain import check_integrator, explain_in
 from ..rendering.explain_draw import segments
 from ..rendering.raycaster import RenderContext
 from ..rendering.renderer import RenderResult, make_context, render_in
@@ -38,6 +38,34 @@ from .navigation import View, home_view, orbit, pan, zoom
 MODES = ("color", "depth", "normals")
 COARSE = (8, 4, 2, 1)  # the progressive levels' downscale factors, before the final full-quality render
 MAX_SAMPLES, MAX_BOUNCES = 64, 16  # the page's limits: a preview must stay interactive
+
+
+def render_view(ctx: RenderContext, width: int, height: int) -> RenderResult:
+    """render_in, path tracer included: the image `durer render` writes for ctx's scene, camera and options."""
+    check_integrator(ctx.scene, ctx.options)  # physically based materials need the path tracer: say so
+    return render_in(ctx, width, height)
+
+
+def levels_for(options: RenderOptions) -> list[tuple[int, RenderOptions]]:
+    """The progressive levels of one view: (downscale factor, options). Coarse images of one centred sample at
+    1/8, 1/4, 1/2 and the full size, then the requested options. The path tracer's full-size images instead take
+    1, 2, 4, ... samples per pixel up to the requested count (each exactly `durer render --samples k`), so the
+    image refines while the camera stands still."""
+    if options.integrator == "path":
+        one = dataclasses.replace(options, samples=1)
+        levels = [(f, one) for f in COARSE[:-1]]
+        k = 1
+        while k < options.samples:
+            levels.append((1, dataclasses.replace(options, samples=k)))
+            k *= 2
+        return levels + [(1, options)]
+    coarse = dataclasses.replace(options, samples=1, sampler="uniform", filter="box", filter_radius=0.5)
+    levels = [(f, coarse) for f in COARSE]
+    if options.samples > 1 or options.filter != "box" or options.filter_radius != 0.5:
+        levels.append((1, options))
+    else:
+        levels[-1] = (1, options)
+    return levels
 
 
 def encode_png(result: RenderResult, mode: str) -> bytes:
@@ -74,7 +102,8 @@ class PreviewSession:
         self.mesh_path, self.poll = mesh_path, poll
         self.mode = "color"
         self.scene: Scene | None = source if isinstance(source, Scene) else None
-        self.error: str | None = None
+        self.error: str | None = None  # the scene file's FILE:LINE message while it does not load
+        self.failure: str | None = None  # the last render's one-line failure, until a render works again
         self.view: View | None = None
         self.home: View | None = None
         self.tree = None
@@ -99,8 +128,8 @@ class PreviewSession:
         with self._cond:
             self._listeners.append(listener)
             listener(self.state())
-            if self.error is not None:
-                listener({"type": "error", "message": self.error})
+            if self.error is not None or self.failure is not None:
+                listener({"type": "error", "message": self.error or self.failure})
             if self._last is not None:
                 listener(self._last[0])
             if self.tree is not None:
@@ -235,14 +264,24 @@ class PreviewSession:
                     return
             if self.path is not None and time.monotonic() - last_poll >= self.poll:
                 last_poll = time.monotonic()
-                self._reload_if_changed()
+                try:
+                    self._reload_if_changed()
+                except Exception as e:  # a scene that loads but does not compile: say so, keep the last one
+                    self._fail(e, "cannot show the scene")
             self._run_jobs()
             if self.scene is not None and rendered != self._generation:
                 try:
                     rendered = self._render_progressively()
-                except Exception as e:  # keep serving: say what failed, wait for the next change
+                except Exception as e:  # keep serving: say what failed (to every page, also later ones), wait
                     rendered = self._generation
-                    self._send({"type": "notice", "message": f"render failed: {type(e).__name__}: {e}"})
+                    self._fail(e)
+
+    def _fail(self, e: Exception, what: str = "render failed") -> None:
+        """A render failed: keep its one-line message, shown as an error on every page until a render works."""
+        first = (str(e).strip().splitlines() or [""])[0]
+        with self._cond:
+            self.failure = f"{what}: {type(e).__name__}" + (f": {first}" if first else "")
+            self._send({"type": "error", "message": self.failure})
 
     def _run_jobs(self) -> None:
         while True:
@@ -278,7 +317,7 @@ class PreviewSession:
             was = self.error
             self.error = None
             if was is not None:
-                self._send({"type": "error", "message": None})
+                self._send({"type": "error", "message": self.failure})
             self._set_scene(scene)
             if self.tree is not None:  # a tree of the old scene would mislead
                 self.clear_tree()
@@ -287,8 +326,8 @@ class PreviewSession:
     def _set_scene(self, scene: Scene) -> None:
         """Compile the scene; keep the current view unless the file's camera changed (or there was none)."""
         old_home = self.home
-        self.scene = scene
         self._context = make_context(scene, self.options)
+        self.scene = scene
         self.home = home_view(scene.camera, self._context.compiled.bounds())
         if self.view is None or old_home is None or old_home.describe() != self.home.describe():
             self.view = self.home
@@ -304,22 +343,22 @@ class PreviewSession:
         with self._cond:
             generation = self._generation
             options = dataclasses.replace(self.options)
-        coarse = dataclasses.replace(options, samples=1, sampler="uniform", filter="box", filter_radius=0.5)
-        levels = [(f, coarse) for f in COARSE]
-        if options.samples > 1 or options.filter != "box" or options.filter_radius != 0.5:
-            levels.append((1, options))
-        else:
-            levels[-1] = (1, options)
+        levels = levels_for(options)
         for i, (factor, opts) in enumerate(levels):
             w, h = max(1, -(-self.width // factor)), max(1, -(-self.height // factor))
             start = time.perf_counter()
-            result = render_in(self._context_for(opts), w, h)
+            result = render_view(self._context_for(opts), w, h)
             final = i == len(levels) - 1
             with self._cond:
                 if generation != self._generation:
                     return -1
+                if self.failure is not None:  # rendering works again: take the message away
+                    self.failure = None
+                    if self.error is None:
+                        self._send({"type": "error", "message": None})
                 message = {"type": "frame", "generation": generation, "level": i, "levels": len(levels),
-                           "final": final, "frame_width": w, "frame_height": h, "width": self.width,
+                           "final": final, "samples": opts.samples, "frame_width": w, "frame_height": h,
+                           "width": self.width,
                            "height": self.height, "seconds": time.perf_counter() - start}
                 self._last = (message, result)
                 self._send(self._encoded(message, result))

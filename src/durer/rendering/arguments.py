@@ -6,10 +6,8 @@ from __future__ import annotations
 from dataclasses import fields
 
 from ..options import RenderOptions
-from ..scene.bsdfs import BSDF, Surface
 from ..scene.graph import Scene
-
-PHYSICAL = (Surface, *BSDF.__args__)  # materials only the path tracer renders
+from ..scene.validate import PHYSICAL
 
 
 def parse_filter(spec: str) -> tuple[str, float | None]:

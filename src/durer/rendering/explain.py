@@ -29,7 +29,9 @@ from ..kernels.common import PLANE, SPHERE, TRIANGLE
 from ..options import RenderOptions
 from ..scene.cameras import image_camera
 from ..scene.graph import Scene
+from ..scene.validate import PHYSICAL
 from . import film
+from .explain_path import explain_path_pixel
 from .raycaster import RenderContext, raycast, surface
 from .renderer import choose_integrator, make_context, make_options
 from .shading import light_directions, phong
@@ -264,14 +266,29 @@ def explain(scene: Scene, width: int, height: int, x: int, y: int, *, options: R
     if not (0 <= x < width and 0 <= y < height):
         raise ValueError(f"pixel ({x}, {y}) is outside the {width}x{height} image "
                          f"(x in 0..{width - 1} from the left, y in 0..{height - 1} from the top)")
+    if options is None:  # a scene's own render defaults (Mitsuba: integrator, sampler, film), as render() does
+        defaults = dict(getattr(scene, "render_defaults", None) or {})
+        kwargs = {**{k: v for k, v in defaults.items() if k not in ("width", "height")}, **kwargs}
     options = make_options(options, **kwargs)
     if options.visualize_grid:
         raise ValueError("explain shows the rays of a render, not the grid's cells: drop visualize_grid")
+    check_integrator(scene, options)
     return explain_in(make_context(scene, options), width, height, x, y)
+
+
+def check_integrator(scene: Scene, options: RenderOptions) -> None:
+    """ValueError, as render() gives, when the options ask for the course's integrators on physically based
+    materials (which only the path tracer renders)."""
+    if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in scene.materials):
+        raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
+                         "integrator='path'")
 
 
 def explain_in(ctx: RenderContext, width: int, height: int, x: int, y: int) -> PixelTree:
     """explain() with a prepared context (the preview server keeps one per scene and options)."""
+    if ctx.options.integrator == "path":  # each sample's path, replayed by the path tracer (explain_path.py)
+        rays = explain_path_pixel(ctx, width, height, x, y)
+        return PixelTree(pixel=(x, y), size=(width, height), rays=rays, options=ctx.options)
     camera = image_camera(ctx.scene.camera, width, height)  # the camera render() traces this image through
     tracer = _Tracer(ctx, choose_integrator(ctx.options))
     points, owners, weights = pixel_samples(width, height, x, y, ctx.options)

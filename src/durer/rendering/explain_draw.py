@@ -15,6 +15,7 @@ COLORS = {  # the course's ray-tree colours: camera rays grey-white, shadow gree
     "blocked": (20, 90, 20),
     "reflection": (255, 50, 50),
     "refraction": (60, 140, 255),
+    "bounce": (255, 160, 40),  # the path tracer's BSDF-sampled rays
 }
 STEPS = 64  # points per segment: straight in a pinhole or orthographic image, curved in a fisheye or panorama
 

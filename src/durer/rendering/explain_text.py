@@ -7,6 +7,36 @@ def _v(a, digits: int = 4) -> str:
     return "(" + ", ".join(f"{x + 0.0:.{digits}g}" for x in a) + ")"  # + 0.0: no "-0"
 
 
+def _path_lines(node: dict) -> list[str]:
+    """A path tracer's node (explain_path.py): its ray and vertex, then the emission found, the light sample
+    (for a shadow node) or the BSDF sample that continues the path."""
+    kind, hit = node["kind"], node["hit"]
+    head = f"{kind} o={_v(node['origin'])} d={_v(node['direction'])}"
+    tail = f"  contribution {_v(node['contribution'])}"
+    if kind == "shadow":
+        s = node["light_sample"]
+        state = "BLOCKED" if node["blocked"] else "reaches it"
+        return [f"{head} -> light sample: {state}{tail}",
+                f"    emitter weight {_v(s['emitter_weight'])} pdf {s['pdf']:.4g}, BSDF {_v(s['bsdf'])} "
+                f"pdf {s['bsdf_pdf']:.4g}, MIS weight {s['mis_weight']:.4g}"]
+    if hit is None:
+        lines = [f"{head} miss  throughput {_v(node['throughput'])}{tail}"]
+    else:
+        lines = [f"{head} hit {hit['object']} {hit['primitive']} at t={node['t']:.6g}, point {_v(hit['point'])}, "
+                 f"normal {_v(hit['normal'])}, material {hit['material']} ({hit['material_type']})  "
+                 f"throughput {_v(node['throughput'])}{tail}"]
+    if node.get("emission"):
+        e = node["emission"]
+        lines.append(f"    emission {_v(e['radiance'])} x MIS weight {e['mis_weight']:.4g}")
+    nxt = node.get("next")
+    if "path_ends" in node:
+        lines.append(f"    path ends: {node['path_ends']}")
+    elif nxt is not None:
+        lobe = "delta lobe" if nxt["delta"] else f"pdf {nxt['pdf']:.4g}"
+        lines.append(f"    BSDF sample ({lobe}): throughput becomes {_v(nxt['throughput'])}")
+    return lines
+
+
 def _ray_line(node: dict) -> str:
     kind = node["kind"]
     head = f"{kind} o={_v(node['origin'])} d={_v(node['direction'])}"
@@ -52,8 +82,11 @@ def _shading_lines(node: dict) -> list[str]:
 
 def _node_lines(node: dict, depth: int) -> list[str]:
     pad = "  " * depth
-    lines = [pad + _ray_line(node)]
-    lines += [pad + "    " + line for line in _shading_lines(node)]
+    if "depth" in node or "light_sample" in node:  # a path tracer's node
+        lines = [pad + line for line in _path_lines(node)]
+    else:
+        lines = [pad + _ray_line(node)]
+        lines += [pad + "    " + line for line in _shading_lines(node)]
     for child in node["children"]:
         lines += _node_lines(child, depth + 1)
     return lines
@@ -71,7 +104,8 @@ def tree_text(tree) -> str:
              "ray's contribution"]
     for i, node in enumerate(tree.rays):
         s = node["sample"]
-        lines.append(f"sample {i + 1}/{len(tree.rays)} at film ({s['film'][0]:.4f}, {s['film'][1]:.4f}) of pixel "
-                     f"({s['pixel'][0]}, {s['pixel'][1]}), filter weight {s['filter_weight']:.4g}")
+        index = f" (sample index {s['index']})" if "index" in s else ""
+        lines.append(f"sample {i + 1}/{len(tree.rays)}{index} at film ({s['film'][0]:.4f}, {s['film'][1]:.4f}) "
+                     f"of pixel ({s['pixel'][0]}, {s['pixel'][1]}), filter weight {s['filter_weight']:.4g}")
         lines += _node_lines(node, 1)
     return "\n".join(lines)

@@ -36,9 +36,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernels.course.noise import turbulence
-from ..scene.materials import PBRMaterial, PhongMaterial
+from ..scene.materials import PBRMaterial
 from ..scene.textures import Checkerboard, Marble, Noise, Wood
 
+TEXTURES = (Checkerboard, Noise, Marble, Wood)
 WOOD_Y_TWIST = 0.05        # phase drift of the rings along the axis, per texture unit and unit of frequency (fitted)
 WOOD_NOISE_Y_SCALE = 0.2   # the noise's coordinate along the axis is scaled by this (fitted, see above)
 
@@ -74,12 +75,13 @@ def blend_weight(texture, points: np.ndarray) -> np.ndarray:
 def leaf_weights(materials: list, mat: np.ndarray, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Resolve material ids (N,) at world points (N,3) into [(Phong material id (N,), weight (N,)), ...].
 
-    The weights of every point sum to 1; a plain PhongMaterial gives [(mat, ones)]. Nested textures are resolved
-    recursively (the parser rejects cycles). Pairs where a point has no share carry weight 0 there.
+    The weights of every point sum to 1; a material that is not a texture gives [(mat, ones)]. Nested textures are
+    resolved recursively (the parser rejects cycles). Pairs where a point has no share carry weight 0 there.
     """
     mat = np.asarray(mat, dtype=np.int64)
     n = len(mat)
-    is_texture = np.array([not isinstance(m, PhongMaterial) for m in materials], dtype=bool)
+    # only the solid textures blend: every other material (Phong, PBR, a path tracer's Surface or BSDF) is a leaf
+    is_texture = np.array([isinstance(m, TEXTURES) for m in materials], dtype=bool)
     pending = [(mat, np.ones(n))]
     done: list[tuple[np.ndarray, np.ndarray]] = []
     while pending:

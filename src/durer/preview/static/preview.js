@@ -5,7 +5,7 @@
 const $ = (id) => document.getElementById(id);
 const image = $("image"), overlay = $("overlay"), stage = $("stage");
 const COLORS = { camera: "#ffffff", shadow: "#28dc28", blocked: "#145a14", reflection: "#ff3232",
-                 refraction: "#3c8cff" };
+                 refraction: "#3c8cff", bounce: "#ffa028" };
 let ws = null, state = null, tree = null, zoomScale = 1, frameSeq = 0;
 
 function send(message) { if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message)); }
@@ -28,6 +28,7 @@ function receive(m) {
 
 function showState(m) {
   state = m;
+  if ($("status").textContent.startsWith("connecting")) $("status").textContent = "rendering\u2026";
   document.body.dataset.camera = JSON.stringify(m.camera);
   document.body.dataset.generation = m.generation;
   if (image.width !== m.width || image.height !== m.height) {
@@ -55,9 +56,11 @@ function showFrame(m) {
     image.dataset.level = m.level;
     image.dataset.mode = m.mode;
     image.dataset.final = m.final ? "1" : "0";
+    image.dataset.samples = m.samples;
     image.dataset.camera = JSON.stringify(m.camera);  // the camera of the frame shown (the state's may be newer)
     document.body.dataset.camera = JSON.stringify(m.camera);
     $("status").textContent = `${m.final ? "done" : "refining"}: ${m.frame_width}x${m.frame_height}` +
+      `, ${m.samples} spp` +
       ` (level ${m.level + 1}/${m.levels}, ${m.seconds.toFixed(2)} s)`;
   };
   img.src = "data:image/png;base64," + m.png;
