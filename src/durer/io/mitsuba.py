@@ -6,6 +6,7 @@ plugin and parameter durer reads and the known differences.
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 import numpy as np
@@ -96,11 +97,26 @@ def load_mitsuba(path: str, mesh_path: list[str] | None = None, params: dict | N
     """Read a Mitsuba 3 XML scene; `params` set its $parameters (as mi.load_file's keyword arguments do),
     overriding the file's <default>s."""
     reader = Reader(params)
-    root = reader.read(path)
-    return Builder(root, mesh_path, os.path.dirname(os.path.abspath(path)), reader.search).build()
+    with _one_line():
+        root = reader.read(path)
+        return Builder(root, mesh_path, os.path.dirname(os.path.abspath(path)), reader.search).build()
 
 
 def load_dict(d: dict, mesh_path: list[str] | None = None) -> Scene:
     """The same scene from a Python dict of mi.load_dict's structure (transforms as 4x4 arrays or any object with
     a `.matrix`, such as Mitsuba's own), without importing Mitsuba."""
-    return Builder(_dict_nodes(d), mesh_path, os.getcwd()).build()
+    with _one_line():
+        return Builder(_dict_nodes(d), mesh_path, os.getcwd()).build()
+
+
+@contextlib.contextmanager
+def _one_line():
+    """Messages quote the user's ids, names and values, which may hold line breaks: escape them, so that every
+    error stays one line."""
+    try:
+        yield
+    except SceneError as e:
+        if not any(c in e.message for c in "\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"):
+            raise
+        text = "".join(c if c.isprintable() else c.encode("unicode_escape").decode() for c in e.message)
+        raise SceneError(text, e.path, e.line) from None

@@ -13,18 +13,25 @@ from .spectra import spectrum_to_rgb
 
 
 def numbers(text: str, where, what: str) -> list[float]:
-    """A comma- or space-separated list of numbers."""
+    """A comma- or space-separated list of finite numbers."""
     try:
-        return [float(x) for x in re.split(r"[,\s]+", text.strip()) if x]
+        out = [float(x) for x in re.split(r"[,\s]+", text.strip()) if x]
     except ValueError:
         raise SceneError(f"{what}: not a list of numbers: {text!r}", *where) from None
+    if not all(math.isfinite(x) for x in out):
+        raise SceneError(f"{what}: numbers must be finite: {text!r}", *where)
+    return out
 
 
 def number(text, where, what: str) -> float:
+    """One finite number."""
     try:
-        return float(text)
+        x = float(text)
     except (TypeError, ValueError):
         raise SceneError(f"{what}: not a number: {text!r}", *where) from None
+    if not math.isfinite(x):
+        raise SceneError(f"{what}: not a finite number: {text!r}", *where)
+    return x
 
 
 def xyz(tag: str, a: dict, where, what: str, default: float | None = None) -> np.ndarray:
@@ -78,7 +85,8 @@ def transform(children: list, where_of, subst) -> np.ndarray:
         else:
             raise SceneError(f"unsupported transform element <{c.tag}> (use lookat, matrix, translate, rotate, "
                              "scale)", *where)
-        m = op @ m
+        with np.errstate(over="ignore", invalid="ignore"):
+            m = op @ m
     if not np.isfinite(m).all():
         raise SceneError("transform is not finite", *where_of(None))
     return m
