@@ -1,10 +1,18 @@
 """Mitsuba 3 BSDF plugins -> scene/bsdfs.py descriptions, and the parameters that Mitsuba lets be a texture
-(a colour or a number given as <rgb>, <spectrum>, <float>, or a nested or referenced <texture>)."""
+(a colour or a number given as <rgb>, <spectrum>, <float>, or a nested or referenced <texture>).
+
+A `checkerboard` texture on one parameter of a BSDF becomes `Checkered`: the BSDF built twice, with color0 and
+with color1, which the shape turns into a UVCheckerboard blend of the two (scene/textures.py). Other textures are
+a SceneError naming them."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
+
 from ..scene import bsdfs as B
-from .mitsuba_tree import Props, call
+from .mitsuba_tree import Node, Props, call
 
 BSDFS = ("diffuse", "dielectric", "conductor", "roughconductor", "plastic", "roughplastic", "twosided")
 
@@ -33,8 +41,18 @@ def scalar(builder, node, p: Props, name: str, default):
     return p.get(name, default, float)
 
 
+@dataclass
+class Checkered:
+    """A BSDF with a checkerboard on one parameter: the BSDF with color0 (bsdf0) and with color1 (bsdf1), and the
+    checkerboard's to_uv (3x3)."""
+
+    bsdf0: object
+    bsdf1: object
+    to_uv: np.ndarray
+
+
 def build_bsdf(builder, node, depth: int = 0):
-    """A BSDF description (a ref resolved); each node is built once so shared refs share it."""
+    """A BSDF description or a Checkered pair (a ref resolved); each node is built once so shared refs share it."""
     node = builder.resolve(node)
     if node.tag != "bsdf":
         raise node.error(f"expected a bsdf, found <{node.tag}>")
@@ -42,10 +60,40 @@ def build_bsdf(builder, node, depth: int = 0):
     if cached is not None:
         return cached
     builder.enter(node, depth)
-    out = _bsdf(builder, node, depth)
+    textured = [c for c in node.children if c.name is not None and builder.resolve(c).tag == "texture"]
+    if not textured:
+        out = _bsdf(builder, node, depth)
+    else:
+        if len(textured) > 1:
+            raise textured[1].error(f"bsdf '{node.type}': durer renders one textured parameter per bsdf")
+        child = textured[0]
+        to_uv, colours = _checkerboard(builder, builder.resolve(child), child.name, node)
+        rest = [c for c in node.children if c is not child]
+        variants = [_bsdf(builder, Node(node.tag, node.type, node.where, None, node.name,
+                                        {**node.props, child.name: (c, child.where)}, rest), depth)
+                    for c in colours]
+        out = Checkered(variants[0], variants[1], to_uv)
     builder.leave(node)
     node._built = out
     return out
+
+
+def _checkerboard(builder, tex, name: str, bsdf) -> tuple[np.ndarray, list]:
+    """A checkerboard texture's to_uv (the 2D affine part of its 4x4) and its two values for parameter `name`."""
+    if tex.type != "checkerboard":
+        raise tex.error(f"unsupported texture '{tex.type}' for {name} of bsdf '{bsdf.type}' (durer renders "
+                        "checkerboard textures)")
+    p = Props(tex)
+    colours = [colour(builder, tex, p, "color0", 0.4), colour(builder, tex, p, "color1", 0.2)]
+    m = p.get("to_uv", np.eye(4), "matrix")
+    p.done()
+    if tex.children:
+        raise tex.children[0].error(f"<{tex.children[0].tag}> cannot appear in a checkerboard")
+    if name in ("alpha", "alpha_u", "alpha_v"):  # a number: the texture must be grey
+        if any(not np.allclose(c, c.flat[0]) for c in colours):
+            raise tex.error(f"{name} takes a grey checkerboard (one number per colour)")
+        colours = [float(c.flat[0]) for c in colours]
+    return m[np.ix_([0, 1, 3], [0, 1, 3])], colours
 
 
 def _bsdf(builder, node, depth: int):
@@ -90,7 +138,11 @@ def _bsdf(builder, node, depth: int):
     else:  # twosided
         if len(node.children) != 1:
             raise node.error("twosided needs exactly one nested bsdf (durer has no different back side)")
-        out = call(node, B.TwoSided, build_bsdf(builder, node.children[0], depth + 1))
+        inner = build_bsdf(builder, node.children[0], depth + 1)
+        if isinstance(inner, Checkered):
+            out = Checkered(call(node, B.TwoSided, inner.bsdf0), call(node, B.TwoSided, inner.bsdf1), inner.to_uv)
+        else:
+            out = call(node, B.TwoSided, inner)
     if t != "twosided" and node.children:
         raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in bsdf '{t}'")
     p.done()

@@ -12,7 +12,9 @@ import numpy as np
 from ..scene import bsdfs as B
 from ..scene.graph import Group, Transform
 from ..scene.shapes import Sphere, TriangleMesh
+from ..scene.textures import UVCheckerboard
 from .files import read_bytes
+from .mitsuba_bsdfs import Checkered
 from .mitsuba_tree import Props, call
 from .serialized import read_serialized
 
@@ -65,8 +67,18 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
             radiance = builder.emitter(child, shape=node)
         else:
             raise child.error(f"<{child.tag}> cannot appear in a shape")
-    surface = call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip)
-    builder.materials.append(surface)
+    if isinstance(bsdf, Checkered):
+        if radiance is not None:
+            raise node.error("durer cannot render a textured bsdf on an emitting shape")
+        if getattr(geometry, "uvs", None) is None:
+            raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's checkerboard (durer has them for "
+                             "meshes with UVs and rectangles)")
+        first = len(builder.materials)
+        builder.materials += [call(node, B.Surface, bsdf.bsdf0, None, flip),
+                              call(node, B.Surface, bsdf.bsdf1, None, flip),
+                              call(node, UVCheckerboard, first, first + 1, bsdf.to_uv)]
+    else:
+        builder.materials.append(call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip))
     geometry.material = len(builder.materials) - 1
     out.append(Transform(m, geometry))
 
@@ -100,7 +112,7 @@ def _group(builder, node, depth: int) -> Group:
 def _mesh_file(builder, node, p: Props) -> TriangleMesh:
     filename = p.get("filename", None, str)
     face_normals = p.get("face_normals", False, bool)
-    p.get("flip_tex_coords", None, bool)
+    flip_uv = p.get("flip_tex_coords", True, bool)
     index = p.get("shape_index", 0, int) if node.type == "serialized" else 0
     if not filename:
         raise node.error(f"shape '{node.type}' needs a filename")
@@ -120,7 +132,11 @@ def _mesh_file(builder, node, p: Props) -> TriangleMesh:
         except Exception as e:  # trimesh raises many types on malformed files
             raise node.error(f"cannot read mesh {filename}: {e}") from None
         vertices, faces = np.asarray(getattr(mesh, "vertices", ())), np.asarray(getattr(mesh, "faces", ()))
-        normals, uvs = None, None
+        uvs = getattr(getattr(mesh, "visual", None), "uv", None)
+        uvs = None if uvs is None or len(uvs) != len(vertices) else np.array(uvs, dtype=np.float64)
+        if uvs is not None and flip_uv and node.type == "obj":  # Mitsuba's obj reader: v -> 1 - v by default
+            uvs[:, 1] = 1.0 - uvs[:, 1]
+        normals = None
     if not len(faces):
         raise node.error(f"mesh {filename} has no triangles")
     return call(node, TriangleMesh, vertices, faces, source=path, uvs=uvs,

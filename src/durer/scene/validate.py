@@ -9,12 +9,12 @@ from .graph import Group, Scene, Transform
 from .lights import DirectionalLight, PointLight, SpotLight
 from .materials import PhongMaterial
 from .shapes import Plane, Sphere, Triangle, TriangleMesh
-from .textures import Checkerboard, Marble, Noise, Wood
+from .textures import Checkerboard, Marble, Noise, UVCheckerboard, Wood
 
 CAMERAS = (OrthographicCamera, PerspectiveCamera, FisheyeCamera, PanoramaCamera)
 LIGHTS = (DirectionalLight, PointLight, SpotLight)
 SHAPES = (Sphere, Plane, Triangle, TriangleMesh)
-TEXTURES = (Checkerboard, Noise, Marble, Wood)
+TEXTURES = (Checkerboard, Noise, Marble, Wood, UVCheckerboard)
 PHYSICAL = (Surface, *BSDF.__args__)  # the path tracer's materials (scene/bsdfs.py)
 
 
