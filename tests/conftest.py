@@ -16,9 +16,10 @@ if os.environ.get("CI"):
     settings.load_profile("ci")
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED = REPO.parent / "shared"
+SHARED = Path(os.environ.get("DURER_SHARED", REPO.parent / "shared"))  # a worktree elsewhere names it
 COURSE = SHARED / "scenes" / "mit6837"
 MESHES = SHARED / "meshes"
+MITSUBA_SCENES = SHARED / "scenes" / "mitsuba"
 
 sys.path.insert(0, str(REPO / "tools"))
 

@@ -75,7 +75,7 @@ ERRORS = [
     ("<bsdf type=\"principled\" id=\"x\"/>", 3, "unsupported bsdf 'principled'"),
     ("<emitter type=\"spot\"/>", 3, "unsupported emitter 'spot'"),
     ("<integrator type=\"volpath\"/>", 3, "unsupported integrator 'volpath'"),
-    ("<texture type=\"bitmap\"/>", 3, "unsupported element <texture>"),
+    ("<texture type=\"bitmap\"/>", 3, "unsupported texture 'bitmap'"),
     ("<shape type=\"sphere\">\n<float name=\"radius\" value=\"1\"/>\n<float name=\"size\" value=\"2\"/></shape>", 5,
      "unsupported parameter 'size' of shape 'sphere'"),
     ("<shape type=\"sphere\"><bsdf type=\"roughconductor\"/></shape>", 3, "only distribution 'ggx'"),
@@ -90,7 +90,7 @@ ERRORS = [
     ("<shape type=\"cube\"><transform name=\"to_world\">\n<shear value=\"1\"/></transform></shape>", 4,
      "unsupported transform element <shear>"),
     ("<bsdf type=\"diffuse\" id=\"d\">\n<texture type=\"bitmap\" name=\"reflectance\"/></bsdf>", 4,
-     "unsupported element <texture>"),
+     "unsupported texture 'bitmap' for reflectance of bsdf 'diffuse'"),
     ("<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"2.5\"/></integrator>", 4, "not an integer"),
     ("<shape type=\"sphere\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"unobtainium\"/></bsdf>"
      "</shape>", 3, "unknown int_ior 'unobtainium'"),
@@ -120,8 +120,8 @@ def test_structural_errors(tmp_path):
         durer.load(p)
     with pytest.raises(SceneError, match="no sensor"):
         durer.load(write(tmp_path, "", sensor=False))
-    with pytest.raises(SceneError, match="unsupported plugin type 'bitmap'"):
-        durer.load_dict({"type": "scene", "t": {"type": "bitmap"}})
+    with pytest.raises(SceneError, match="unsupported plugin type 'sdfgrid'"):
+        durer.load_dict({"type": "scene", "t": {"type": "sdfgrid"}})
 
 
 def test_cli_reports_one_line_and_exit_2(tmp_path):

@@ -1,5 +1,6 @@
-"""Mitsuba 3 plugin trees (io/mitsuba.py's Node, from XML or a dict) -> durer Scene, checking every plugin and
-parameter against the subset durer renders (each mistake a SceneError at its file:line)."""
+"""Mitsuba 3 plugin trees (io/mitsuba_tree.Node, from XML or a dict) -> durer Scene: the scene, integrator, sensor,
+film, sampler and emitters, checking every plugin and parameter against what durer renders (each mistake a
+SceneError at its file:line). BSDFs are io/mitsuba_bsdfs.py, shapes io/mitsuba_shapes.py."""
 
 from __future__ import annotations
 
@@ -10,70 +11,26 @@ import numpy as np
 
 from ..scene import bsdfs as B
 from ..scene.cameras import PerspectiveCamera
-from ..scene.graph import Group, Scene, Transform
+from ..scene.graph import Group, Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
-from ..scene.shapes import Sphere, TriangleMesh
 from .images import read_hdr
+from .mitsuba_bsdfs import build_bsdf, colour
+from .mitsuba_shapes import DISK_SEGMENTS, build_shape  # noqa: F401  (DISK_SEGMENTS: README's known differences)
+from .mitsuba_tree import Props, call
+from .mitsuba_xml import MAX_DEPTH
 
-DISK_SEGMENTS = 256
-_ROUGH = ("alpha", "alpha_u", "alpha_v", "distribution", "sample_visible")
-
-
-class _Props:
-    """A plugin's parameters, taken one by one; whatever is left at the end is outside the subset."""
-
-    def __init__(self, node):
-        self.node = node
-        self.left = dict(node.props)
-
-    def get(self, name: str, default=None, kind=None):
-        if name not in self.left:
-            return default
-        value, where = self.left.pop(name)
-        if kind is float:
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-                raise self.node.error(f"{name} of {self.node.tag} '{self.node.type}' must be a number", where)
-            return float(value)
-        if kind is int:
-            if isinstance(value, bool) or int(value) != value:
-                raise self.node.error(f"{name} of {self.node.tag} '{self.node.type}' must be an integer", where)
-            return int(value)
-        if kind is bool and not isinstance(value, (bool, np.bool_)):
-            raise self.node.error(f"{name} of {self.node.tag} '{self.node.type}' must be true or false", where)
-        if kind == "matrix":
-            m = np.asarray(getattr(value, "matrix", value), dtype=np.float64)
-            if m.shape != (4, 4) or not np.isfinite(m).all():
-                raise self.node.error(f"{name} must be a 4x4 transform", where)
-            return m
-        if kind == "vec":
-            v = np.asarray(value, dtype=np.float64).reshape(-1)
-            if v.size != 3:
-                raise self.node.error(f"{name} must be three numbers", where)
-            return v
-        return value
-
-    def where(self, name: str):
-        return self.node.props[name][1] if name in self.node.props else self.node.where
-
-    def done(self) -> None:
-        for name, (_, where) in self.left.items():
-            raise self.node.error(f"unsupported parameter '{name}' of {self.node.tag} '{self.node.type}' "
-                                  "(outside durer's Mitsuba subset)", where)
-
-
-def _call(node, fn, *args, **kw):
-    """Run a description constructor, turning its ValueError into a SceneError at the node."""
-    try:
-        return fn(*args, **kw)
-    except ValueError as e:
-        raise node.error(f"{node.tag} '{node.type}': {e}") from None
+SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+OUT_OF_SCOPE = ("volpath", "volpathmis", "prbvolpath")  # participating media: not in durer
 
 
 class Builder:
-    """Walks the plugin tree once, collecting materials, shapes, lights and render defaults."""
+    """Walks the plugin tree once, collecting materials, shapes, lights and render defaults. `search` is the file
+    resolver's folder list (XML <path>s, then the scene's folder)."""
 
-    def __init__(self, root, mesh_path: list[str] | None = None, base_dir: str = "."):
+    def __init__(self, root, mesh_path: list[str] | None = None, base_dir: str = ".",
+                 search: list[str] | None = None):
         self.root, self.mesh_path, self.base_dir = root, mesh_path or [], base_dir
+        self.search = list(search or [base_dir])
         self.ids: dict = {}
         self.materials: list = []
         self.objects: list = []
@@ -81,24 +38,59 @@ class Builder:
         self.environment = None
         self.defaults: dict = {"integrator": "path", "max_depth": -1, "rr_depth": 5}
         self.camera = None
+        self._active: set = set()  # ids being built: a ref back to one of them is a cycle
 
-    def resolve(self, node):
+    def file(self, node, filename: str, where, what: str) -> str:
+        """An existing file: absolute, or under one of the resolver's folders, or on the mesh path."""
+        candidates = [filename] if os.path.isabs(filename) else \
+            [os.path.join(d, filename) for d in self.search + self.mesh_path]
+        path = next((c for c in candidates if os.path.isfile(c)), None)
+        if path is None:
+            raise node.error(f"{what} not found: {filename}", where)
+        return path
+
+    def resolve(self, node, depth: int = 0):
+        """The plugin a <ref> names (or the node itself), refusing references to what is being built."""
         if node.tag != "ref":
             return node
         if node.id not in self.ids:
             raise node.error(f"reference to unknown id '{node.id}'")
+        if node.id in self._active:
+            raise node.error(f"reference cycle: '{node.id}' refers to itself through its own contents")
         return self.ids[node.id]
+
+    def enter(self, node, depth: int) -> None:
+        if depth > MAX_DEPTH:
+            raise node.error(f"plugins nested (or referenced) more than {MAX_DEPTH} deep")
+        if node.id is not None:
+            self._active.add(node.id)
+
+    def leave(self, node) -> None:
+        self._active.discard(node.id)
+
+    def _collect_ids(self, node, depth: int = 0) -> None:
+        for child in node.children:
+            if child.tag == "ref":
+                continue
+            if child.id is not None:
+                if child.id in self.ids:
+                    first = self.ids[child.id].where
+                    raise child.error(f"id '{child.id}' declared twice (first at {first[0]}:{first[1]})")
+                self.ids[child.id] = child
+            self._collect_ids(child, depth + 1)
 
     def build(self) -> Scene:
         root = self.root
-        _Props(root).done()
+        Props(root).done()
+        self._collect_ids(root)
         for child in root.children:
-            if child.id is not None:
-                self.ids[child.id] = child
-        for child in root.children:
-            child = self.resolve(child)
+            if child.tag == "ref":
+                raise child.error("a <ref> at the top of a scene refers to nothing")
+            if child.id is not None and (child.tag == "texture" or (child.tag, child.type) in (
+                    ("emitter", "area"), ("shape", "shapegroup"))):
+                continue  # declarations: they take effect where a <ref> uses them
             handler = {"integrator": self.integrator, "sensor": self.sensor, "shape": self.shape,
-                       "emitter": self.emitter, "bsdf": lambda n: self.bsdf(n)}.get(child.tag)
+                       "emitter": self.emitter, "bsdf": self.bsdf, "texture": self.texture}.get(child.tag)
             if handler is None:
                 raise child.error(f"<{child.tag}> cannot appear at the top of a scene")
             handler(child)
@@ -108,29 +100,76 @@ class Builder:
                      lights=self.lights, environment=self.environment, radiometric_lights=True,
                      render_defaults=self.defaults, source=root.where[0])
 
-    def integrator(self, node) -> None:
-        if node.type != "path":
-            raise node.error(f"unsupported integrator '{node.type}' (durer renders Mitsuba's 'path')")
-        p = _Props(node)
-        self.defaults["max_depth"] = p.get("max_depth", -1, int)
-        self.defaults["rr_depth"] = p.get("rr_depth", 5, int)
+    def bsdf(self, node, depth: int = 0):
+        return build_bsdf(self, node, depth)
+
+    def texture(self, node):
+        raise node.error(f"unsupported texture '{node.type}' (durer's path tracer has no textures yet)")
+
+    def shape(self, node) -> None:
+        build_shape(self, node)
+
+    def integrator(self, node, depth: int = 0) -> None:
+        p = Props(node)
+        t = node.type
+        if t in ("moment", "aov"):  # wrappers: the RGB image is the nested integrator's
+            p.get("aovs", None, str)
+            p.done()
+            nested = [c for c in node.children if c.tag in ("integrator", "ref")]
+            if len(nested) != 1 or len(node.children) != 1:
+                raise node.error(f"integrator '{t}': durer renders the RGB image of exactly one nested "
+                                 "integrator (its extra channels are not computed)")
+            self.enter(node, depth)
+            self.integrator(self.resolve(nested[0]), depth + 1)
+            self.leave(node)
+            return
+        if t in OUT_OF_SCOPE:
+            raise node.error(f"unsupported integrator '{t}': participating media are outside durer's scope")
+        if t == "direct":
+            emitter_samples = p.get("emitter_samples", 1, int)
+            bsdf_samples = p.get("bsdf_samples", 1, int)
+            p.get("shading_samples", None, int)
+            if emitter_samples < 1 or bsdf_samples < 1:
+                raise node.error("direct: durer needs emitter_samples >= 1 and bsdf_samples >= 1 (it renders "
+                                 "'direct' as 'path' with max_depth 2: the same expected image)")
+            max_depth, rr_depth = 2, 5
+        elif t == "path":
+            max_depth, rr_depth = p.get("max_depth", -1, int), p.get("rr_depth", 5, int)
+        else:
+            raise node.error(f"unsupported integrator '{t}' (durer renders path and direct, and reads moment and "
+                             "aov as their nested integrator)")
         self.defaults["hide_emitters"] = p.get("hide_emitters", False, bool)
-        if self.defaults["max_depth"] < -1 or self.defaults["rr_depth"] < 1:
+        if max_depth < -1 or rr_depth < 1:
             raise node.error("max_depth must be >= -1 and rr_depth >= 1")
+        self.defaults["max_depth"], self.defaults["rr_depth"] = max_depth, rr_depth
         p.done()
+        if node.children:
+            raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in integrator '{t}'")
 
     def sensor(self, node) -> None:
         if node.type != "perspective":
             raise node.error(f"unsupported sensor '{node.type}' (durer reads 'perspective')")
-        p = _Props(node)
+        if self.camera is not None:
+            raise node.error("durer renders one sensor per scene")
+        p = Props(node)
         fov = p.get("fov", None, float)
-        axis = p.get("fov_axis", "x")
+        axis = p.get("fov_axis", "x", str).lower()
+        focal = p.get("focal_length", None)
         near = p.get("near_clip", 0.01, float)
         p.get("far_clip", None, float)
         p.get("focus_distance", None, float)  # a pinhole: focus does not matter
         m = p.get("to_world", np.eye(4), "matrix")
-        if fov is None:
-            raise node.error("the perspective sensor needs fov (durer does not read focal_length)")
+        if fov is not None and focal is not None:
+            raise node.error("give either fov or focal_length, not both")
+        if fov is None:  # Mitsuba: a 35 mm film's diagonal (43.27 mm) seen through focal_length (50mm by default)
+            text = str("50mm" if focal is None else focal).strip()
+            mm = _number_or_none(text[:-2] if text.endswith("mm") else text)
+            if mm is None or not mm > 0:
+                raise node.error(f"focal_length must be a positive length like 50mm, got {text!r}",
+                                 p.where("focal_length"))
+            fov, axis = math.degrees(2 * math.atan(math.hypot(36.0, 24.0) / (2 * mm))), "diagonal"
+        if not 0 < fov < 180:
+            raise node.error(f"fov must be between 0 and 180 degrees, got {fov}", p.where("fov"))
         if axis not in ("x", "y", "diagonal", "smaller", "larger"):
             raise node.error(f"unknown fov_axis '{axis}'", p.where("fov_axis"))
         p.done()
@@ -152,26 +191,27 @@ class Builder:
         origin, left, up, direction = m[:3, 3], m[:3, 0], m[:3, 1], m[:3, 2]
         if np.dot(np.cross(direction, up), -left) <= 0:
             raise node.error("the sensor's to_world mirrors the image (durer's cameras are right-handed)")
-        cam = _call(node, PerspectiveCamera, origin, direction, up, math.degrees(2 * math.atan(tan_long)))
+        cam = call(node, PerspectiveCamera, origin, direction, up, math.degrees(2 * math.atan(tan_long)))
         cam.t_min = near
         self.camera = cam
 
     def film(self, node) -> tuple[int, int]:
         if node.type != "hdrfilm":
             raise node.error(f"unsupported film '{node.type}' (durer reads 'hdrfilm')")
-        p = _Props(node)
+        p = Props(node)
         width, height = p.get("width", 768, int), p.get("height", 576, int)
-        if width < 1 or height < 1:
-            raise node.error("film width and height must be positive")
-        for name in ("pixel_format", "component_format", "file_format", "banner"):
-            p.get(name)
+        if not (1 <= width <= 65536 and 1 <= height <= 65536):
+            raise node.error("film width and height must be between 1 and 65536")
+        for name in ("pixel_format", "component_format", "file_format"):
+            p.get(name, None, str)
+        p.get("banner", None, bool)
         p.done()
         self.defaults["filter"], self.defaults["filter_radius"] = "gaussian", 0.5  # Mitsuba's default rfilter
         for child in node.children:
             child = self.resolve(child)
             if child.tag != "rfilter":
                 raise child.error(f"<{child.tag}> cannot appear in a film")
-            f = _Props(child)
+            f = Props(child)
             if child.type not in ("box", "tent", "gaussian"):
                 raise child.error(f"unsupported rfilter '{child.type}' (use box, tent or gaussian)")
             radius = f.get("stddev", 0.5, float) if child.type == "gaussian" else \
@@ -183,9 +223,9 @@ class Builder:
         return width, height
 
     def sampler(self, node) -> None:
-        if node.type not in ("independent", "stratified", "multijitter", "orthogonal", "ldsampler"):
+        if node.type not in SAMPLERS:
             raise node.error(f"unsupported sampler '{node.type}'")
-        p = _Props(node)
+        p = Props(node)
         spp = p.get("sample_count", 4, int)
         if spp < 1:
             raise node.error("sample_count must be positive")
@@ -196,98 +236,43 @@ class Builder:
         p.get("jitter", None, bool)
         p.done()
 
-    def bsdf(self, node):
-        """A BSDF description (a ref resolved); each node is built once so shared refs share it."""
-        node = self.resolve(node)
-        if node.tag != "bsdf":
-            raise node.error(f"expected a bsdf, found <{node.tag}>")
-        cached = getattr(node, "_built", None)
-        if cached is not None:
-            return cached
-        p = _Props(node)
-        t = node.type
-        rough = t in ("roughconductor", "roughplastic")
-        if rough:
-            dist = p.get("distribution", "beckmann")
-            if dist != "ggx":
-                raise node.error(f"{t}: only distribution 'ggx' is supported (Mitsuba's default is beckmann; "
-                                 "set it explicitly)", p.where("distribution"))
-            if not p.get("sample_visible", True, bool):
-                raise node.error(f"{t}: sample_visible must be true")
-            alpha = p.get("alpha", 0.1, float)
-        if t == "diffuse":
-            out = _call(node, B.Diffuse, p.get("reflectance", 0.5))
-        elif t == "dielectric":
-            out = _call(node, B.Dielectric, p.get("int_ior", 1.5046), p.get("ext_ior", 1.000277),
-                        p.get("specular_reflectance", 1.0), p.get("specular_transmittance", 1.0))
-        elif t in ("conductor", "roughconductor"):
-            material = p.get("material", None)
-            eta, k = p.get("eta", None), p.get("k", None)
-            kw = dict(specular_reflectance=p.get("specular_reflectance", 1.0))
-            if t == "roughconductor":
-                kw.update(alpha_u=p.get("alpha_u", alpha, float), alpha_v=p.get("alpha_v", alpha, float))
-            cls = B.RoughConductor if t == "roughconductor" else B.Conductor
-            if material is not None and (eta is not None or k is not None):
-                raise node.error(f"{t}: give either material or eta and k")
-            if eta is None and k is None:
-                out = _call(node, cls.named, material or "none", **kw)
-            else:
-                out = _call(node, cls, 0.0 if eta is None else eta, 1.0 if k is None else k, **kw)
-        elif t in ("plastic", "roughplastic"):
-            args = (p.get("diffuse_reflectance", 0.5), p.get("specular_reflectance", 1.0),
-                    p.get("int_ior", 1.49), p.get("ext_ior", 1.000277), p.get("nonlinear", False, bool))
-            out = _call(node, B.RoughPlastic, *args, alpha) if rough else _call(node, B.Plastic, *args)
-        elif t == "twosided":
-            if len(node.children) != 1:
-                raise node.error("twosided needs exactly one nested bsdf (durer has no different back side)")
-            out = _call(node, B.TwoSided, self.bsdf(node.children[0]))
-        else:
-            raise node.error(f"unsupported bsdf '{t}' (use diffuse, dielectric, conductor, roughconductor, "
-                             "plastic, roughplastic or twosided)")
-        if t != "twosided" and node.children:
-            raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in bsdf '{t}' (textures are "
-                                         "outside durer's Mitsuba subset)")
-        p.done()
-        node._built = out
-        return out
-
     def emitter(self, node, shape=None):
-        p = _Props(node)
+        p = Props(node)
         t = node.type
         if (t == "area") != (shape is not None):
-            raise node.error("an area emitter belongs inside a shape" if t == "area" else
-                             f"emitter '{t}' cannot be attached to a shape")
+            raise node.error("an area emitter belongs inside a shape (or is declared with an id and referenced "
+                             "from one)" if t == "area" else f"emitter '{t}' cannot be attached to a shape")
         if t == "area":
-            out = p.get("radiance", 1.0)
+            out = colour(self, node, p, "radiance", 1.0)
         elif t == "point":
             m = p.get("to_world", None, "matrix")
             pos = p.get("position", None, "vec")
             pos = pos if pos is not None else (m[:3, 3] if m is not None else np.zeros(3))
-            out = _call(node, PointLight, pos, B.rgb(p.get("intensity", 1.0)), (0.0, 0.0, 1.0))
+            out = call(node, PointLight, pos, B.rgb(colour(self, node, p, "intensity", 1.0)), (0.0, 0.0, 1.0))
             self.lights.append(out)
         elif t == "directional":
             m = p.get("to_world", None, "matrix")
             d = p.get("direction", None, "vec")
             d = d if d is not None else (m[:3, 2] if m is not None else np.array([0.0, 0.0, 1.0]))
-            out = _call(node, DirectionalLight, d, B.rgb(p.get("irradiance", 1.0)))
+            out = call(node, DirectionalLight, d, B.rgb(colour(self, node, p, "irradiance", 1.0)))
             self.lights.append(out)
         elif t in ("constant", "envmap"):
             if self.environment is not None:
                 raise node.error("a scene can have only one constant or envmap emitter")
             if t == "constant":
-                out = _call(node, ConstantEnvironment, p.get("radiance", 1.0))
+                out = call(node, ConstantEnvironment, colour(self, node, p, "radiance", 1.0))
             else:
                 out = self._envmap(node, p)
             self.environment = out
         else:
             raise node.error(f"unsupported emitter '{t}' (use area, point, directional, constant or envmap)")
-        if node.children:
-            raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in an emitter")
         p.done()
+        if node.children:
+            raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in emitter '{t}'")
         return out
 
     def _envmap(self, node, p) -> EnvironmentMap:
-        filename = p.get("filename", None)
+        filename = p.get("filename", None, str)
         scale = p.get("scale", 1.0, float)
         m = p.get("to_world", np.eye(4), "matrix")
         if not filename:
@@ -295,91 +280,16 @@ class Builder:
         r = m[:3, :3]
         if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
             raise node.error("envmap to_world must be a rotation")
-        path = filename if os.path.isabs(filename) else os.path.join(self.base_dir, filename)
-        if not os.path.isfile(path):
-            raise node.error(f"environment map not found: {filename}", p.where("filename"))
+        path = self.file(node, filename, p.where("filename"), "environment map")
         try:
             image = read_hdr(path)
         except ValueError as e:
             raise node.error(str(e), p.where("filename")) from None
-        return _call(node, EnvironmentMap, image, scale, m, path)
-
-    def shape(self, node) -> None:
-        p = _Props(node)
-        t = node.type
-        m = p.get("to_world", np.eye(4), "matrix")
-        flip = p.get("flip_normals", False, bool)
-        if t in ("obj", "ply"):
-            geometry = self._mesh_file(node, p.get("filename", None), p)
-        elif t == "rectangle":
-            geometry = TriangleMesh([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]])
-        elif t == "cube":
-            geometry = _cube()
-        elif t == "disk":
-            a = np.linspace(0.0, 2.0 * np.pi, DISK_SEGMENTS, endpoint=False)
-            v = np.vstack([[0.0, 0.0, 0.0], np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])])
-            i = np.arange(DISK_SEGMENTS)
-            geometry = TriangleMesh(v, np.column_stack([np.zeros_like(i), 1 + i, 1 + (i + 1) % DISK_SEGMENTS]))
-        elif t == "sphere":
-            geometry = _call(node, Sphere, p.get("center", np.zeros(3), "vec"), p.get("radius", 1.0, float))
-        else:
-            raise node.error(f"unsupported shape '{t}' (use obj, ply, rectangle, cube, sphere or disk)")
-        p.done()
-        bsdf, radiance = None, None
-        for child in node.children:
-            child = self.resolve(child)
-            if child.tag == "bsdf":
-                if bsdf is not None:
-                    raise child.error("a shape has one bsdf")
-                bsdf = self.bsdf(child)
-            elif child.tag == "emitter":
-                if radiance is not None:
-                    raise child.error("a shape has one emitter")
-                radiance = self.emitter(child, shape=node)
-            else:
-                raise child.error(f"<{child.tag}> cannot appear in a shape")
-        if abs(np.linalg.det(m[:3, :3])) < 1e-300:
-            raise node.error("to_world is singular")
-        surface = _call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip)
-        self.materials.append(surface)
-        geometry.material = len(self.materials) - 1
-        self.objects.append(Transform(m, geometry))
-
-    def _mesh_file(self, node, filename, p):
-        for name in ("face_normals",):
-            p.get(name)
-        if not filename:
-            raise node.error(f"shape '{node.type}' needs a filename")
-        candidates = [filename if os.path.isabs(filename) else os.path.join(self.base_dir, filename)]
-        candidates += [os.path.join(d, filename) for d in self.mesh_path]
-        path = next((c for c in candidates if os.path.isfile(c)), None)
-        if path is None:
-            raise node.error(f"mesh file not found: {filename}", p.where("filename"))
-        import trimesh
-
-        try:
-            mesh = trimesh.load(path, file_type=node.type, force="mesh", process=False)
-        except Exception as e:  # trimesh raises many types on malformed files
-            raise node.error(f"cannot read mesh {filename}: {e}") from None
-        if not len(getattr(mesh, "faces", ())):
-            raise node.error(f"mesh {filename} has no triangles")
-        return _call(node, TriangleMesh, np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        return call(node, EnvironmentMap, image, scale, m, path)
 
 
-def _cube() -> TriangleMesh:
-    """[-1, 1]^3 with outward-facing triangles."""
-    v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
-    faces = []
-    for axis in range(3):
-        for sign in (-1, 1):
-            quad = [i for i in range(8) if v[i, axis] == sign]
-            c = v[quad].mean(0)
-            normal = np.zeros(3)
-            normal[axis] = sign
-            e1, e2 = np.eye(3)[(axis + 1) % 3], np.eye(3)[(axis + 2) % 3]
-            quad.sort(key=lambda i: math.atan2((v[i] - c) @ e2, (v[i] - c) @ e1))
-            a, b, c2, d = quad
-            for tri in ((a, b, c2), (a, c2, d)):
-                n = np.cross(v[tri[1]] - v[tri[0]], v[tri[2]] - v[tri[0]])
-                faces.append(tri if n @ normal > 0 else (tri[0], tri[2], tri[1]))
-    return TriangleMesh(v, np.array(faces))
+def _number_or_none(text: str) -> float | None:
+    try:
+        return float(text)
+    except ValueError:
+        return None

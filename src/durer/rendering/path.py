@@ -20,6 +20,7 @@ import threading
 
 import numpy as np
 
+from ..kernels.common import TRIANGLE
 from ..kernels.path.bounce import add_unblocked, dim1, dim2, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
@@ -164,7 +165,8 @@ class PathTracer:
             last = 0 <= self.max_depth <= depth + 1
             slot = slot_em
             if tb.is_texture.any() and not last:
-                slot = self._resolve_textures(slot_em[:m], hit, p[:m], uniform(keys[idx], dim1(depth, 3)))
+                slot = self._resolve_textures(slot_em[:m], hit, p[:m], uniform(keys[idx], dim1(depth, 3)),
+                                              hits.kind, hits.prim)
             env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
             if em.envmap is not None and not last:
                 env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
@@ -212,23 +214,29 @@ class PathTracer:
             is_emitter[miss] = False
         return radiance, pdf, is_emitter
 
-    def _resolve_textures(self, slot: np.ndarray, hit: np.ndarray, p: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Course solid textures: pick one blended material per hit, with the texture's weight as probability."""
+    def _resolve_textures(self, slot: np.ndarray, hit: np.ndarray, p: np.ndarray, u: np.ndarray,
+                          kind: np.ndarray, prim: np.ndarray) -> np.ndarray:
+        """Textures (the course's solid ones, Mitsuba's checkerboard in UV): pick one blended material per hit,
+        with the texture's weight as probability."""
         tex = hit & self.table.is_texture[slot]
         if not tex.any():
             return slot
         t = np.flatnonzero(tex)
+        uv = np.zeros((len(t), 2))
+        on_mesh = kind[t] == TRIANGLE
+        if on_mesh.any() and self.ctx.compiled.has_uv:
+            uv[on_mesh] = self.ctx.compiled.uv_at(prim[t][on_mesh], p[t][on_mesh])
         chosen = slot[t].copy()
         acc = np.zeros(len(t))
         done = np.zeros(len(t), bool)
-        for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t], p[t]):
+        for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t], p[t], uv):
             acc += weight
             take = ~done & (u[t] < acc) & (weight > 0)
             chosen[take] = leaf[take]
             done |= take
         last = ~done  # rounding: the weights sum to 1 up to float error
         if last.any():
-            for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t][last], p[t][last]):
+            for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t][last], p[t][last], uv[last]):
                 chosen[np.flatnonzero(last)[weight > 0]] = leaf[weight > 0]
         out = slot.copy()
         out[t] = chosen

@@ -37,9 +37,9 @@ import numpy as np
 
 from ..kernels.course.noise import turbulence
 from ..scene.materials import PBRMaterial
-from ..scene.textures import Checkerboard, Marble, Noise, Wood
+from ..scene.textures import Checkerboard, Marble, Noise, UVCheckerboard, Wood
 
-TEXTURES = (Checkerboard, Noise, Marble, Wood)
+TEXTURES = (Checkerboard, Noise, Marble, Wood, UVCheckerboard)  # the textures that blend two materials
 WOOD_Y_TWIST = 0.05        # phase drift of the rings along the axis, per texture unit and unit of frequency (fitted)
 WOOD_NOISE_Y_SCALE = 0.2   # the noise's coordinate along the axis is scaled by this (fitted, see above)
 
@@ -50,8 +50,14 @@ def texture_points(texture, points: np.ndarray) -> np.ndarray:
     return points @ m[:3, :3].T + m[:3, 3]
 
 
-def blend_weight(texture, points: np.ndarray) -> np.ndarray:
-    """Weight (N,) of material2 at world points (N,3) for one texture."""
+def blend_weight(texture, points: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
+    """Weight (N,) of material2 at world points (N,3) for one texture; UV textures read the hits' texture
+    coordinates `uv` (N,2)."""
+    if isinstance(texture, UVCheckerboard):
+        m = texture.to_uv
+        q = (np.zeros((len(points), 2)) if uv is None else uv) @ m[:2, :2].T + m[:2, 2]
+        f = q - np.floor(q)
+        return ((f[:, 0] > 0.5) != (f[:, 1] > 0.5)).astype(np.float64)
     p = np.ascontiguousarray(texture_points(texture, points))
     if isinstance(texture, Checkerboard):
         parity = np.floor(p).astype(np.int64).sum(axis=1) & 1
@@ -72,7 +78,8 @@ def blend_weight(texture, points: np.ndarray) -> np.ndarray:
     raise TypeError(f"not a solid texture: {type(texture).__name__}")
 
 
-def leaf_weights(materials: list, mat: np.ndarray, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+def leaf_weights(materials: list, mat: np.ndarray, points: np.ndarray,
+                 uv: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """Resolve material ids (N,) at world points (N,3) into [(Phong material id (N,), weight (N,)), ...].
 
     The weights of every point sum to 1; a material that is not a texture gives [(mat, ones)]. Nested textures are
@@ -80,7 +87,7 @@ def leaf_weights(materials: list, mat: np.ndarray, points: np.ndarray) -> list[t
     """
     mat = np.asarray(mat, dtype=np.int64)
     n = len(mat)
-    # only the solid textures blend: every other material (Phong, PBR, a path tracer's Surface or BSDF) is a leaf
+    # only textures blend: every other material (Phong, PBR, a path tracer's Surface or BSDF) is a leaf
     is_texture = np.array([isinstance(m, TEXTURES) for m in materials], dtype=bool)
     pending = [(mat, np.ones(n))]
     done: list[tuple[np.ndarray, np.ndarray]] = []
@@ -95,7 +102,7 @@ def leaf_weights(materials: list, mat: np.ndarray, points: np.ndarray) -> list[t
         for t in np.unique(idx[tex]):
             sel = np.flatnonzero(idx == t)
             texture = materials[t]
-            b = blend_weight(texture, points[sel])
+            b = blend_weight(texture, points[sel], None if uv is None else uv[sel])
             first[sel], second[sel] = texture.material1, texture.material2
             w_first[sel] = w[sel] * (1.0 - b)
             w_second[sel] = w[sel] * b

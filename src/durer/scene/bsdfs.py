@@ -49,14 +49,26 @@ def ior(v, what: str = "index of refraction") -> float:
         if v.lower() not in IORS:
             raise ValueError(f"unknown {what} {v!r} (use a number or one of {', '.join(sorted(IORS))})")
         return IORS[v.lower()]
-    x = float(v)
+    x = _number(v, what)
     if not (x > 0 and np.isfinite(x)):
         raise ValueError(f"{what} must be positive, got {v!r}")
     return x
 
 
+def _number(v, what: str) -> float:
+    """One real number (a Python or NumPy scalar, or a size-1 array), or a ValueError naming `what`."""
+    try:
+        a = np.asarray(v, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.size != 1 or isinstance(v, (bool, np.bool_)):
+        got = f"{a.size} numbers" if a is not None else repr(v)
+        raise ValueError(f"{what} must be one number, got {got}")
+    return float(a.reshape(-1)[0])
+
+
 def _alpha(v) -> float:
-    x = float(v)
+    x = _number(v, "roughness alpha")
     if not (0 < x <= 4):
         raise ValueError(f"roughness alpha must be in (0, 4], got {v!r}")
     return x

@@ -1,0 +1,162 @@
+"""Mitsuba 3 shape plugins -> durer geometry placed by Transforms: mesh files (obj, ply through trimesh; serialized
+through io/serialized.py), rectangle, cube, sphere, disk, and shapegroup + instance (a group of shapes placed
+several times, which durer stores once and traces two-level). Each shape gets its own material slot (BSDF, area
+emission, flipped normals)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..scene import bsdfs as B
+from ..scene.graph import Group, Transform
+from ..scene.shapes import Sphere, TriangleMesh
+from ..scene.textures import UVCheckerboard
+from .files import read_bytes
+from .mitsuba_bsdfs import Checkered
+from .mitsuba_tree import Props, call
+from .serialized import read_serialized
+
+DISK_SEGMENTS = 256
+SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "shapegroup", "instance")
+
+
+def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
+    """Add the shape (placed by its to_world) to `out` (the scene's objects by default)."""
+    out = builder.objects if out is None else out
+    t = node.type
+    if t not in SHAPES:
+        raise node.error(f"unsupported shape '{t}' (durer reads {', '.join(SHAPES)})")
+    if t == "shapegroup":
+        raise node.error("a shapegroup needs an id and is placed by instances that refer to it")
+    p = Props(node)
+    m = p.get("to_world", np.eye(4), "matrix")
+    if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+        raise node.error("to_world is singular")
+    if t == "instance":
+        p.done()
+        out.append(Transform(m, _group(builder, node, depth)))
+        return
+    flip = p.get("flip_normals", False, bool)
+    if t in ("obj", "ply", "serialized"):
+        geometry = _mesh_file(builder, node, p)
+    elif t == "rectangle":
+        geometry = TriangleMesh([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]],
+                                uvs=[[0, 0], [1, 0], [1, 1], [0, 1]])
+    elif t == "cube":
+        geometry = _cube()
+    elif t == "disk":
+        a = np.linspace(0.0, 2.0 * np.pi, DISK_SEGMENTS, endpoint=False)
+        v = np.vstack([[0.0, 0.0, 0.0], np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])])
+        i = np.arange(DISK_SEGMENTS)
+        geometry = TriangleMesh(v, np.column_stack([np.zeros_like(i), 1 + i, 1 + (i + 1) % DISK_SEGMENTS]))
+    else:  # sphere
+        geometry = call(node, Sphere, p.get("center", np.zeros(3), "vec"), p.get("radius", 1.0, float))
+    p.done()
+    bsdf, radiance = None, None
+    for child in node.children:
+        child = builder.resolve(child)
+        if child.tag == "bsdf":
+            if bsdf is not None:
+                raise child.error("a shape has one bsdf")
+            bsdf = builder.bsdf(child, depth + 1)
+        elif child.tag == "emitter":
+            if radiance is not None:
+                raise child.error("a shape has one emitter")
+            radiance = builder.emitter(child, shape=node)
+        else:
+            raise child.error(f"<{child.tag}> cannot appear in a shape")
+    if isinstance(bsdf, Checkered):
+        if radiance is not None:
+            raise node.error("durer cannot render a textured bsdf on an emitting shape")
+        if getattr(geometry, "uvs", None) is None:
+            raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's checkerboard (durer has them for "
+                             "meshes with UVs and rectangles)")
+        first = len(builder.materials)
+        builder.materials += [call(node, B.Surface, bsdf.bsdf0, None, flip),
+                              call(node, B.Surface, bsdf.bsdf1, None, flip),
+                              call(node, UVCheckerboard, first, first + 1, bsdf.to_uv)]
+    else:
+        builder.materials.append(call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip))
+    geometry.material = len(builder.materials) - 1
+    out.append(Transform(m, geometry))
+
+
+def _group(builder, node, depth: int) -> Group:
+    """The Group an instance places: its shapegroup's shapes, built once and shared by every instance."""
+    refs = [c for c in node.children if c.tag == "ref"]
+    if len(refs) != 1 or len(node.children) != 1:
+        raise node.error("an instance refers to exactly one shapegroup (<ref id=\"...\"/>)")
+    group = builder.resolve(refs[0])
+    if group.tag != "shape" or group.type != "shapegroup":
+        raise refs[0].error(f"an instance places a shapegroup, not <{group.tag}> '{group.type}'")
+    cached = getattr(group, "_built", None)
+    if cached is not None:
+        return cached
+    builder.enter(group, depth)
+    Props(group).done()
+    shapes: list = []
+    for child in group.children:
+        child = builder.resolve(child)
+        if child.tag != "shape" or child.type in ("shapegroup", "instance"):
+            raise child.error("a shapegroup holds shapes (not groups or instances)")
+        if any(builder.resolve(c).tag == "emitter" for c in child.children):
+            raise child.error("shapes in a shapegroup cannot emit light (as in Mitsuba)")
+        build_shape(builder, child, depth + 1, shapes)
+    builder.leave(group)
+    group._built = Group(shapes)
+    return group._built
+
+
+def _mesh_file(builder, node, p: Props) -> TriangleMesh:
+    filename = p.get("filename", None, str)
+    face_normals = p.get("face_normals", False, bool)
+    flip_uv = p.get("flip_tex_coords", True, bool)
+    index = p.get("shape_index", 0, int) if node.type == "serialized" else 0
+    if not filename:
+        raise node.error(f"shape '{node.type}' needs a filename")
+    path = builder.file(node, filename, p.where("filename"), "mesh file")
+    if node.type == "serialized":
+        try:
+            mesh = read_serialized(read_bytes(path, "mesh file"), index)
+        except ValueError as e:
+            raise node.error(f"cannot read mesh {filename}: {e}", p.where("filename")) from None
+        vertices, faces, normals, uvs = mesh.vertices, mesh.faces, mesh.normals, mesh.uvs
+        face_normals = face_normals or mesh.face_normals
+    else:
+        import trimesh
+
+        try:
+            mesh = trimesh.load(path, file_type=node.type, force="mesh", process=False)
+        except Exception as e:  # trimesh raises many types on malformed files
+            raise node.error(f"cannot read mesh {filename}: {e}") from None
+        vertices, faces = np.asarray(getattr(mesh, "vertices", ())), np.asarray(getattr(mesh, "faces", ()))
+        uvs = getattr(getattr(mesh, "visual", None), "uv", None)
+        uvs = None if uvs is None or len(uvs) != len(vertices) else np.array(uvs, dtype=np.float64)
+        if uvs is not None and flip_uv and node.type == "obj":  # Mitsuba's obj reader: v -> 1 - v by default
+            uvs[:, 1] = 1.0 - uvs[:, 1]
+        normals = None
+    if not len(faces):
+        raise node.error(f"mesh {filename} has no triangles")
+    return call(node, TriangleMesh, vertices, faces, source=path, uvs=uvs,
+                normals=None if face_normals else normals)
+
+
+def _cube() -> TriangleMesh:
+    """[-1, 1]^3 with outward-facing triangles."""
+    v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+    faces = []
+    for axis in range(3):
+        for sign in (-1, 1):
+            quad = [i for i in range(8) if v[i, axis] == sign]
+            c = v[quad].mean(0)
+            normal = np.zeros(3)
+            normal[axis] = sign
+            e1, e2 = np.eye(3)[(axis + 1) % 3], np.eye(3)[(axis + 2) % 3]
+            quad.sort(key=lambda i: math.atan2((v[i] - c) @ e2, (v[i] - c) @ e1))
+            a, b, c2, d = quad
+            for tri in ((a, b, c2), (a, c2, d)):
+                n = np.cross(v[tri[1]] - v[tri[0]], v[tri[2]] - v[tri[0]])
+                faces.append(tri if n @ normal > 0 else (tri[0], tri[2], tri[1]))
+    return TriangleMesh(v, np.array(faces))
