@@ -119,10 +119,10 @@ class _FakeTerminal:
 def test_progress_bar_only_on_a_terminal_and_never_when_quiet(monkeypatch, tty, quiet, shown):
     import importlib
 
-    render_module = importlib.import_module("durer.rendering.renderer")
+    progress_module = importlib.import_module("durer.rendering.progress")
     fake = _FakeTerminal(tty)
-    monkeypatch.setattr(render_module.sys, "stderr", fake)
-    bar = render_module._progress(100, quiet)
+    monkeypatch.setattr(progress_module.sys, "stderr", fake)
+    bar = progress_module.progress(100, quiet)
     assert bar.disable is not shown
     if shown:
         assert bar.delay == pytest.approx(1.0)  # appears only for renders longer than about a second

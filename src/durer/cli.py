@@ -156,7 +156,7 @@ def _zoom(values: list[str] | None, flag: str, width: int, height: int) -> tuple
         zoom = _positive_int(values[1])
     except argparse.ArgumentTypeError as e:
         raise UsageError(f"{flag} ZOOM: {e}") from None
-    from .rendering.renderer import physical_memory
+    from .rendering.memory import physical_memory
 
     side = max(width, height) * zoom + 1
     need = (width * zoom + 1) * (height * zoom + 1) * BYTES_PER_DEBUG_PIXEL
