@@ -34,6 +34,9 @@ class RenderOptions:
     max_depth: int = -1           # path: Mitsuba's max_depth (1 emitters only, 2 direct light, -1 unbounded)
     rr_depth: int = 5             # path: Russian roulette from this depth on
     hide_emitters: bool = False   # path: camera rays do not see emitters (nor the environment)
+    # issue 24: the denoiser's features and Intel Open Image Denoise (rendering/denoise.py)
+    aovs: bool = False            # also produce albedo and shading normals (RenderResult.albedo, .shading_normals)
+    denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs)
 
     def validate(self) -> None:
         if self.bounces < 0:

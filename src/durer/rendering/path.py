@@ -65,9 +65,12 @@ class PathTracer:
         self._bvh = accel._args() if self._fused else None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
         self.threads: int | None = None  # threads of each fused bounce kernel (None: numba's; render_path sets it)
+        # the denoiser's features (issue 24): each path's first non-specular hit's albedo and normal
+        self.features = bool(o.aovs or o.denoise)
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
-        """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
+        """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit, and the
+        features: albedo and normal (N,3) of the first non-specular hit (None unless options.aovs or denoise)."""
         if self._fused:
             return self._trace_fused(origins, directions, t_min, pixel, sample_index)
         return self._trace_unfused(origins, directions, t_min, pixel, sample_index)
@@ -80,26 +83,38 @@ class PathTracer:
         o, d, thr, eta, prev, keys, pkeys, alive = self._state(n)
         path = (sample_index, keys, pkeys)
         L, first_t, first_n = np.empty((n, 3)), np.empty(n), np.empty((n, 3))
+        aux = self._aux(n)
         start_paths(seed_key(self.ctx.options.seed), np.ascontiguousarray(pixel, dtype=np.int64), sample_index,
                     PIXEL_KEY, np.ascontiguousarray(origins, dtype=np.float64),
                     np.ascontiguousarray(directions, dtype=np.float64), (o, d, thr, eta, prev), path[1:],
-                    (L, first_t, first_n))
+                    (L, first_t, first_n), aux)
         live = np.arange(n)
         bsdf, lights = self.table.packed(), self.emitters.pack()
         env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
         depth, tmin, work = 0, float(t_min), scratch(self._bvh[-1])
         while len(live) and depth < MAX_BOUNCES:
             last = 0 <= self.max_depth <= depth + 1
-            scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth)
+            scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth, self.features)
             run_pieces(trace_bounce, PIECES, live, o, d, thr, eta, prev, path, self._bvh, self._surfaces,
-                       self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, (first_t, first_n), alive,
-                       work, threads=self.threads)
+                       self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, aux, (first_t, first_n),
+                       alive, work, threads=self.threads)
             if last:
                 break
             live = live[alive[:len(live)]]
             tmin = 0.0
             depth += 1
-        return L, first_t, first_n
+        return L, first_t, first_n, *self._features(aux)
+
+    def _aux(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The features' per-path arrays (tint, albedo, normal) for n paths (kernels/path/bounce.shade_path), each
+        (n, 3) with tint 1 and the rest 0, or empty when no features are wanted (the kernels never touch them)."""
+        if not self.features:
+            return np.ones((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+        return np.ones((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+
+    def _features(self, aux: tuple) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """(albedo, normal) of trace's result: aux's, or (None, None) when no features are wanted."""
+        return (aux[1], aux[2]) if self.features else (None, None)
 
     def _state(self, n: int) -> tuple[np.ndarray, ...]:
         """The fused wavefront's per-path state for n paths (o, d, thr, eta, prev, keys, pixel keys, alive), as
@@ -135,6 +150,7 @@ class PathTracer:
         pkeys = key(seed, pixel, np.full(n, PIXEL_KEY))
         L = np.zeros((n, 3))
         first_t, first_n = np.full(n, np.inf), np.zeros((n, 3))
+        aux = self._aux(n)
         idx = np.arange(n)
         # every bounce works in views of these buffers (first m rows): fresh arrays per bounce measured a quarter
         # of the CPU time in page faults; live paths are gathered from the `nxt` arrays back into the state
@@ -165,7 +181,8 @@ class PathTracer:
                 env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
             run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, slot_em, slot,
                        (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
-                       tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth), L,
+                       tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth,
+                                                     self.features), L, aux,
                        (shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok), (nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta))
             if last:
                 break
@@ -183,7 +200,7 @@ class PathTracer:
                 np.take(src, alive, axis=0, out=dst[:m], mode="clip")
             tmin = 0.0
             depth += 1
-        return L, first_t, first_n
+        return L, first_t, first_n, *self._features(aux)
 
     def _misses(self, d: np.ndarray, hit: np.ndarray, depth: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Radiance (N,3) seen by the rays that escape, its light-sampling pdf (N,) and whether it is an emitter
@@ -223,15 +240,17 @@ class PathTracer:
         return out
 
 
-def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.ndarray, ...]:
     """Path-trace the image: options.samples passes over all pixels (the progress bar counts them), each sample
     splatted through the reconstruction filter. Returns pixel colours (H*W,3), depth (H*W,) and normals (H*W,3) of
-    each pixel's first sample."""
+    each pixel's first sample, and the features albedo and normal (H*W,3), filtered like the colour (None unless
+    options.aovs or options.denoise)."""
     options = ctx.options
     tracer = PathTracer(ctx)
     camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
     count = width * height
-    acc, wsum = np.zeros((count, 3)), np.zeros(count)
+    channels = 9 if tracer.features else 3  # colour, and the features' albedo and normal splatted with it
+    acc, wsum = np.zeros((count, channels)), np.zeros(count)
     depth, normals = np.full(count, np.inf), np.zeros((count, 3))
     radius = film.support_radius(options)
     row_all, col_all = np.divmod(np.arange(count), width)
@@ -251,13 +270,13 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
         pts = np.column_stack([col + off[:, 0], height - 1 - row + off[:, 1]])
         o, d, valid = camera.generate_rays(pts, width, height)
         if valid.all():  # every pinhole and orthographic ray: no gathers and scatters
-            return (pts, row, col, pix, sidx) + tracer.trace(o, d, camera.t_min, pix, sidx)
-        color = np.zeros((len(pix), 3))
+            return (pts, row, col, pix, sidx) + _values(*tracer.trace(o, d, camera.t_min, pix, sidx))
+        values = np.zeros((len(pix), channels))
         v = np.flatnonzero(valid)
         t_first, n_first = np.full(len(pix), np.inf), np.zeros((len(pix), 3))
         if len(v):
-            color[v], t_first[v], n_first[v] = tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v])
-        return pts, row, col, pix, sidx, color, t_first, n_first
+            values[v], t_first[v], n_first[v] = _values(*tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v]))
+        return pts, row, col, pix, sidx, values, t_first, n_first
 
     # the kernels are nogil: up to WORKERS wavefronts are traced at once, each bounce's kernel on the threads left
     # to it (one each when two run: two wavefronts on two cores each splitting its bounces over both threads took
@@ -267,17 +286,26 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
     workers = max(1, min(WORKERS, threads, len(jobs)))
     tracer.threads = max(1, threads // workers)
     with ThreadPoolExecutor(workers, thread_name_prefix="durer-path") as pool:
-        for pts, row, col, pix, sidx, color, t_first, n_first in pool.map(run, jobs):
+        for pts, row, col, pix, sidx, values, t_first, n_first in pool.map(run, jobs):
             s0 = sidx == 0
             depth[pix[s0]], normals[pix[s0]] = t_first[s0], n_first[s0]
-            _splat(options, pts, row, col, color, width, height, radius, acc, wsum)
+            _splat(options, pts, row, col, values, width, height, radius, acc, wsum)
             bar.update(len(pix) / count)
     out = np.divide(acc, wsum[:, None], out=np.zeros_like(acc), where=wsum[:, None] > 0)
-    return out, depth, normals
+    if tracer.features:
+        return out[:, :3], depth, normals, out[:, 3:6], out[:, 6:9]
+    return out, depth, normals, None, None
 
 
-def _splat(options, pts, row, col, color, width, height, radius, acc, wsum) -> None:
-    """Add each sample, weighted by the filter, to every pixel within the filter's support."""
+def _values(color, t_first, n_first, albedo, normal) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """trace's result as (values to splat: colour, or colour, albedo and normal side by side (N, 9); t; normal)."""
+    if albedo is None:
+        return color, t_first, n_first
+    return np.concatenate([color, albedo, normal], axis=1), t_first, n_first
+
+
+def _splat(options, pts, row, col, values, width, height, radius, acc, wsum) -> None:
+    """Add each sample's values (N, C), weighted by the filter, to every pixel within the filter's support."""
     for dr in range(-radius, radius + 1):
         for dc in range(-radius, radius + 1):
             r, c = row + dr, col + dc
@@ -285,5 +313,5 @@ def _splat(options, pts, row, col, color, width, height, radius, acc, wsum) -> N
             w = film.filter_weight(options, pts[:, 0] - (c + 0.5), pts[:, 1] - (height - r - 0.5)) * ok
             target = np.where(ok, r * width + c, 0)
             wsum += np.bincount(target, weights=w, minlength=len(wsum))
-            for ch in range(3):
-                acc[:, ch] += np.bincount(target, weights=w * color[:, ch], minlength=len(wsum))
+            for ch in range(values.shape[1]):
+                acc[:, ch] += np.bincount(target, weights=w * values[:, ch], minlength=len(wsum))

@@ -38,6 +38,10 @@ class RenderResult:
     color: float32 (H,W,3) linear radiance; depth: float32 (H,W) ray parameter t of the closest hit (inf on a miss);
     normals: float32 (H,W,3) unit world-space normals of the closest hit (0 on a miss). With several samples per
     pixel, depth and normals are those of the sample nearest the pixel's centre.
+    With options.aovs or options.denoise (issue 24), the denoiser's features, filtered like the colour: albedo
+    float32 (H,W,3), the reflectance of each sample's first non-specular hit (seen through mirrors and glass, tinted
+    by them; 0 where the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering);
+    else None. With options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds).
     """
 
     color: np.ndarray
@@ -45,6 +49,9 @@ class RenderResult:
     normals: np.ndarray
     seconds: float = 0.0
     stats: RayStats | None = None  # -stats counters (None unless options.stats)
+    albedo: np.ndarray | None = None
+    shading_normals: np.ndarray | None = None
+    denoise_seconds: float = 0.0
 
     def __repr__(self) -> str:
         h, w = self.depth.shape
@@ -206,6 +213,10 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
         raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
                          "integrator='path'")
     start = time.perf_counter()
+    if options.denoise:  # refused before anything is rendered when pyoidn is missing
+        from .denoise import require_oidn
+
+        require_oidn()
     if not quiet and kernels_cold():
         print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
     ctx = make_context(scene, options)
@@ -213,12 +224,26 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
         from .path import render_path
 
         with _progress(options.samples, quiet, unit="spp") as bar:
-            color, depth, normals = render_path(ctx, width, height, bar)
-        return RenderResult(color=color.reshape(height, width, 3).astype(np.float32),
-                            depth=depth.reshape(height, width).astype(np.float32),
-                            normals=normals.reshape(height, width, 3).astype(np.float32),
-                            seconds=time.perf_counter() - start)
-    return render_in(ctx, width, height, quiet=quiet, start=start)
+            color, depth, normals, albedo, shading = render_path(ctx, width, height, bar)
+        result = RenderResult(color=color.reshape(height, width, 3).astype(np.float32),
+                              depth=depth.reshape(height, width).astype(np.float32),
+                              normals=normals.reshape(height, width, 3).astype(np.float32),
+                              albedo=_image(albedo, height, width), shading_normals=_image(shading, height, width))
+    else:
+        result = render_in(ctx, width, height, quiet=quiet, start=start)
+    if options.denoise:
+        from .denoise import clean_features, denoise
+
+        done = denoise(result.color, result.albedo, result.shading_normals,
+                       clean=clean_features(scene.materials, options.integrator == "path"))
+        result.color, result.denoise_seconds = done.color, done.seconds
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def _image(values: np.ndarray | None, height: int, width: int) -> np.ndarray | None:
+    """Per-pixel values (H*W, 3) as a float32 (H, W, 3) image; None stays None."""
+    return None if values is None else values.reshape(height, width, 3).astype(np.float32)
 
 
 def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,
@@ -236,6 +261,7 @@ def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True
     color[~valid] = scene.background_color  # film points without a ray (outside a fisheye's circle)
     depth = np.full(n, np.inf)
     normals = np.zeros((n, 3))
+    features = np.zeros((n, 6)) if options.aovs or options.denoise else None  # albedo, shading normal
     idx = np.flatnonzero(valid)
     step = _chunk(len(idx), width, height)
     with _progress(len(idx), quiet) as bar:
@@ -243,16 +269,39 @@ def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True
             sel = idx[lo:lo + step]
             r: SampleResult = integrate(ctx, origins[sel], directions[sel], camera.t_min)
             color[sel], depth[sel], normals[sel] = r.color, r.t, r.normal
+            _keep_features(features, sel, r)
             bar.update(len(sel))
     pixels = film.reconstruct(points, pixel, color, width, height, options)
     centre = _nearest_to_centre(points, pixel, width, height)
+    albedo, shading = _film_features(features, points, pixel, width, height, options)
     return RenderResult(
         color=pixels.reshape(height, width, 3).astype(np.float32),
         depth=depth[centre].reshape(height, width).astype(np.float32),
         normals=normals[centre].reshape(height, width, 3).astype(np.float32),
         seconds=time.perf_counter() - start,
         stats=getattr(ctx.accel, "stats", None),
+        albedo=albedo, shading_normals=shading,
     )
+
+
+# --- issue 24: the features on today's film (to move onto the accumulating film: it filters every non-None extra
+# field of SampleResult with the colour's weights) -------------------------------------------------------------------
+def _keep_features(features: np.ndarray | None, sel: np.ndarray, r: SampleResult) -> None:
+    """Store a batch's per-sample albedo and shading normal (rows sel) when features are wanted."""
+    if features is None:
+        return
+    if r.albedo is None or r.shading_normal is None:
+        raise ValueError("this integrator does not produce the denoiser's features (albedo, shading normal)")
+    features[sel, :3], features[sel, 3:] = r.albedo, r.shading_normal
+
+
+def _film_features(features: np.ndarray | None, points: np.ndarray, pixel: np.ndarray, width: int, height: int,
+                   options: RenderOptions) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The per-sample features filtered into pixels like the colour: albedo and shading normal (H, W, 3)."""
+    if features is None:
+        return None, None
+    f = film.reconstruct(points, pixel, features, width, height, options)
+    return _image(f[:, :3], height, width), _image(f[:, 3:], height, width)
 
 
 BYTES_PER_SAMPLE = 200  # film points, rays, colour, depth, normals, pixel ids and the filter's buffers (float64)
