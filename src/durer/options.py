@@ -37,6 +37,7 @@ class RenderOptions:
     # issue 24: the denoiser's features and Intel Open Image Denoise (rendering/denoise.py)
     aovs: bool = False            # also produce albedo and shading normals (RenderResult.albedo, .shading_normals)
     denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs)
+    aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
 
     def validate(self) -> None:
         if self.bounces < 0:

@@ -2,7 +2,8 @@
 for the subset the path tracer renders. Anything outside it is a SceneError `file:line: ...` naming the element
 or parameter, never a silent difference.
 
-Subset: scene; default (name, value) with $name substitution; integrator path (max_depth, rr_depth, hide_emitters);
+Subset: scene; default (name, value) with $name substitution; integrator path (max_depth, rr_depth, hide_emitters),
+and aov (albedo, sh_normal, geo_normal, depth) around it;
 sensor perspective (fov, fov_axis, near_clip, far_clip, focus_distance, to_world) with film hdrfilm (width, height,
 rfilter box/tent/gaussian, pixel_format, component_format) and a sampler (sample_count, seed; every sampler type
 maps onto durer's own Owen-scrambled Sobol stream); shapes obj, ply, rectangle, cube, sphere, disk (to_world,
@@ -275,7 +276,8 @@ def _dict_nodes(d: dict, tag: str = "scene", name: str | None = None, path: str 
 
 
 _DICT_TYPES = {
-    "integrator": ("path",), "sensor": ("perspective",), "film": ("hdrfilm",), "rfilter": ("box", "tent", "gaussian"),
+    "integrator": ("path", "aov"), "sensor": ("perspective",), "film": ("hdrfilm",),
+    "rfilter": ("box", "tent", "gaussian"),
     "sampler": ("independent", "stratified", "multijitter", "orthogonal", "ldsampler"),
     "shape": ("obj", "ply", "rectangle", "cube", "sphere", "disk"),
     "bsdf": ("diffuse", "dielectric", "conductor", "roughconductor", "plastic", "roughplastic", "twosided"),

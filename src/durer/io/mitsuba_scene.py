@@ -19,6 +19,10 @@ DISK_SEGMENTS = 256
 _ROUGH = ("alpha", "alpha_u", "alpha_v", "distribution", "sample_visible")
 
 
+# Mitsuba's aov types durer produces, and the output each becomes (io/layers.py)
+AOV_TYPES = {"albedo": "albedo", "sh_normal": "normals", "geo_normal": "normals", "depth": "depth"}
+
+
 class _Props:
     """A plugin's parameters, taken one by one; whatever is left at the end is outside the subset."""
 
@@ -109,6 +113,8 @@ class Builder:
                      render_defaults=self.defaults, source=root.where[0])
 
     def integrator(self, node) -> None:
+        if node.type == "aov":
+            return self.aov_integrator(node)
         if node.type != "path":
             raise node.error(f"unsupported integrator '{node.type}' (durer renders Mitsuba's 'path')")
         p = _Props(node)
@@ -118,6 +124,26 @@ class Builder:
         if self.defaults["max_depth"] < -1 or self.defaults["rr_depth"] < 1:
             raise node.error("max_depth must be >= -1 and rr_depth >= 1")
         p.done()
+
+    def aov_integrator(self, node) -> None:
+        """Mitsuba's `aov` integrator (issue 24): its outputs `name:type` map onto durer's (AOV_TYPES), which the
+        CLI writes beside the image under durer's names; its nested integrator renders the colour."""
+        p = _Props(node)
+        outputs = []
+        for item in str(p.get("aovs", "")).split(","):
+            name, _, kind = item.strip().partition(":")
+            if kind not in AOV_TYPES:
+                raise node.error(f"unsupported aov '{item.strip()}' (durer writes "
+                                 f"{', '.join(f'name:{t}' for t in AOV_TYPES)})", p.where("aovs"))
+            outputs.append(AOV_TYPES[kind])
+        p.done()
+        inner = [c for c in node.children if c.tag == "integrator"]
+        if len(inner) > 1:
+            raise inner[1].error("durer renders one integrator inside 'aov'")
+        if inner:
+            self.integrator(self.resolve(inner[0]))
+        self.defaults["aov_outputs"] = tuple(dict.fromkeys(outputs))
+        self.defaults["aovs"] = "albedo" in outputs
 
     def sensor(self, node) -> None:
         if node.type != "perspective":

@@ -15,21 +15,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import MissingDependency
 from ..scene.bsdfs import Dielectric, Surface, TwoSided
 from ..scene.materials import PhongMaterial
 from ..scene.textures import Texture
 
-INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]" (or pyoidn)'
+INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]"'
 QUALITY = "balanced"  # OIDN's quality preset: "high" took 2.3x the time for 2-6% lower error (benchmarks/README.md)
 
 
 def require_oidn():
-    """The pyoidn module, or a one-line UsageError saying what to install (called before rendering)."""
+    """The pyoidn module, or MissingDependency, one line saying what to install (called before rendering)."""
     try:
         import pyoidn
     except ImportError:
-        raise UsageError(INSTALL) from None
+        raise MissingDependency(INSTALL) from None
     return pyoidn
 
 
@@ -68,7 +68,7 @@ def clean_features(materials: list, path: bool) -> bool:
 def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean: bool = True,
             quality: str = QUALITY) -> Denoised:
     """OIDN's RT filter on linear HDR colour (H, W, 3) with albedo and normal features (H, W, 3). `clean` says the
-    features are noise-free (else each is prefiltered first). Raises UsageError if pyoidn is missing."""
+    features are noise-free (else each is prefiltered first). Raises MissingDependency without pyoidn."""
     oidn = require_oidn()
     start = time.perf_counter()
     color = _image(np.maximum(np.nan_to_num(color, posinf=0.0), 0.0))  # OIDN's HDR input: finite, non-negative
