@@ -199,3 +199,31 @@ def reconstruct(points: np.ndarray, pixel: np.ndarray, values: np.ndarray, width
     _reconstruct(np.ascontiguousarray(points, dtype=np.float64), start, order.astype(np.int64), vals, width, height,
                  _FILTER_CODES[options.filter], float(options.filter_radius), support_radius(options), out)
     return out.reshape((count,) + np.shape(values)[1:])
+
+
+# --- issue 24: splatting extra per-sample values (the path tracer's features) into per-pixel sums ------------------
+def filter_code(options: RenderOptions) -> int:
+    """The reconstruction filter's code for the kernels (BOX, TENT, GAUSSIAN)."""
+    return _FILTER_CODES[options.filter]
+
+
+@nb.njit(cache=True)
+def splat_values(kind, r, radius, points, row, col, values, width, height, total, weight):
+    """total[p] += w * values[s] and weight[p] += w for each sample s (film point, pixel row and column) and each
+    pixel p within `radius` of its own, w the filter's weight at s from p's centre: one pass over the samples for
+    every channel (serial, as _weights_at, beside the running wavefronts)."""
+    for i in range(row.shape[0]):
+        for dr in range(-radius, radius + 1):
+            rr = row[i] + dr
+            if rr < 0 or rr >= height:
+                continue
+            for dc in range(-radius, radius + 1):
+                cc = col[i] + dc
+                if cc < 0 or cc >= width:
+                    continue
+                w = _weight(kind, r, points[i, 0] - (cc + 0.5), points[i, 1] - (height - rr - 0.5))
+                if w != 0.0:
+                    p = rr * width + cc
+                    weight[p] += w
+                    for c in range(values.shape[1]):
+                        total[p, c] += w * values[i, c]

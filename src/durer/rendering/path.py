@@ -249,8 +249,8 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
     tracer = PathTracer(ctx)
     camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
     count = width * height
-    channels = 9 if tracer.features else 3  # colour, and the features' albedo and normal splatted with it
-    acc, wsum = np.zeros((count, channels)), np.zeros(count)
+    acc, wsum = np.zeros((count, 3)), np.zeros(count)
+    features = (np.zeros((count, 6)), np.zeros(count)) if tracer.features else None  # sums of w * f, of w
     depth, normals = np.full(count, np.inf), np.zeros((count, 3))
     radius = film.support_radius(options)
     row_all, col_all = np.divmod(np.arange(count), width)
@@ -270,13 +270,17 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
         pts = np.column_stack([col + off[:, 0], height - 1 - row + off[:, 1]])
         o, d, valid = camera.generate_rays(pts, width, height)
         if valid.all():  # every pinhole and orthographic ray: no gathers and scatters
-            return (pts, row, col, pix, sidx) + _values(*tracer.trace(o, d, camera.t_min, pix, sidx))
-        values = np.zeros((len(pix), channels))
+            return (pts, row, col, pix, sidx) + _with_features(*tracer.trace(o, d, camera.t_min, pix, sidx))
+        color = np.zeros((len(pix), 3))
+        f = np.zeros((len(pix), 6)) if tracer.features else None
         v = np.flatnonzero(valid)
         t_first, n_first = np.full(len(pix), np.inf), np.zeros((len(pix), 3))
         if len(v):
-            values[v], t_first[v], n_first[v] = _values(*tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v]))
-        return pts, row, col, pix, sidx, values, t_first, n_first
+            c, t_first[v], n_first[v], fv = _with_features(*tracer.trace(o[v], d[v], camera.t_min, pix[v], sidx[v]))
+            color[v] = c
+            if f is not None:
+                f[v] = fv
+        return pts, row, col, pix, sidx, color, t_first, n_first, f
 
     # the kernels are nogil: up to WORKERS wavefronts are traced at once, each bounce's kernel on the threads left
     # to it (one each when two run: two wavefronts on two cores each splitting its bounces over both threads took
@@ -285,27 +289,30 @@ def render_path(ctx: RenderContext, width: int, height: int, bar) -> tuple[np.nd
     threads = nb.get_num_threads()
     workers = max(1, min(WORKERS, threads, len(jobs)))
     tracer.threads = max(1, threads // workers)
+    kind, r = film.filter_code(options), float(options.filter_radius)
     with ThreadPoolExecutor(workers, thread_name_prefix="durer-path") as pool:
-        for pts, row, col, pix, sidx, values, t_first, n_first in pool.map(run, jobs):
+        for pts, row, col, pix, sidx, color, t_first, n_first, f in pool.map(run, jobs):
             s0 = sidx == 0
             depth[pix[s0]], normals[pix[s0]] = t_first[s0], n_first[s0]
-            _splat(options, pts, row, col, values, width, height, radius, acc, wsum)
+            _splat(options, pts, row, col, color, width, height, radius, acc, wsum)
+            if features is not None:
+                film.splat_values(kind, r, radius, pts, row, col, f, width, height, *features)
             bar.update(len(pix) / count)
     out = np.divide(acc, wsum[:, None], out=np.zeros_like(acc), where=wsum[:, None] > 0)
-    if tracer.features:
-        return out[:, :3], depth, normals, out[:, 3:6], out[:, 6:9]
-    return out, depth, normals, None, None
+    if features is None:
+        return out, depth, normals, None, None
+    total, weight = features
+    f = np.divide(total, weight[:, None], out=np.zeros_like(total), where=weight[:, None] > 0)
+    return out, depth, normals, f[:, :3], f[:, 3:]
 
 
-def _values(color, t_first, n_first, albedo, normal) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """trace's result as (values to splat: colour, or colour, albedo and normal side by side (N, 9); t; normal)."""
-    if albedo is None:
-        return color, t_first, n_first
-    return np.concatenate([color, albedo, normal], axis=1), t_first, n_first
+def _with_features(color, t_first, n_first, albedo, normal) -> tuple:
+    """trace's result as (colour, t, normal, features: albedo and normal side by side (N, 6), or None)."""
+    return color, t_first, n_first, None if albedo is None else np.concatenate([albedo, normal], axis=1)
 
 
-def _splat(options, pts, row, col, values, width, height, radius, acc, wsum) -> None:
-    """Add each sample's values (N, C), weighted by the filter, to every pixel within the filter's support."""
+def _splat(options, pts, row, col, color, width, height, radius, acc, wsum) -> None:
+    """Add each sample, weighted by the filter, to every pixel within the filter's support."""
     for dr in range(-radius, radius + 1):
         for dc in range(-radius, radius + 1):
             r, c = row + dr, col + dc
@@ -313,5 +320,5 @@ def _splat(options, pts, row, col, values, width, height, radius, acc, wsum) -> 
             w = film.filter_weight(options, pts[:, 0] - (c + 0.5), pts[:, 1] - (height - r - 0.5)) * ok
             target = np.where(ok, r * width + c, 0)
             wsum += np.bincount(target, weights=w, minlength=len(wsum))
-            for ch in range(values.shape[1]):
-                acc[:, ch] += np.bincount(target, weights=w * values[:, ch], minlength=len(wsum))
+            for ch in range(3):
+                acc[:, ch] += np.bincount(target, weights=w * color[:, ch], minlength=len(wsum))

@@ -141,16 +141,23 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
 
 @nb.njit(**JIT, inline="always")
 def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
-    """The denoiser's features of path j at this hit: on a surface with a non-delta lobe (or where the path
-    escapes or meets no BSDF) the tint so far times the BSDF's albedo (bsdf_albedo) and the geometric normal are
-    written to aux[1][j], aux[2][j] and the search ends (tint 0); returns whether it goes on (a delta-only surface:
-    mirror, glass, whose sampled lobe multiplies the tint in shade_path)."""
+    """The denoiser's features of path j at this hit: on an emitter seen from its emitting side, its radiance's
+    colour (scaled to a maximum of 1: the denoiser then sees the light's edge, which a light with the ceiling's BSDF
+    would not show); on a surface with a non-delta lobe, bsdf_albedo; either times the tint so far, with the
+    geometric normal, written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does where the path
+    escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass), whose sampled lobe
+    multiplies the tint in shade_path."""
     tint, albedo, normal = aux
-    if hit and s >= 0 and P[s, SMOOTH] == 0:
-        return True
     if hit and s >= 0:
         sgn = -1.0 if P[s, FLIP] != 0 else 1.0
-        a0, a1, a2 = bsdf_albedo(P, s, -(dx * gx + dy * gy + dz * gz) * sgn)
+        wiz = -(dx * gx + dy * gy + dz * gz) * sgn
+        glow = max(P[s, EMISSION], P[s, EMISSION + 1], P[s, EMISSION + 2])
+        if glow > 0 and wiz > 0:
+            a0, a1, a2 = P[s, EMISSION] / glow, P[s, EMISSION + 1] / glow, P[s, EMISSION + 2] / glow
+        elif P[s, SMOOTH] == 0:
+            return True
+        else:
+            a0, a1, a2 = bsdf_albedo(P, s, wiz)
         albedo[j, 0], albedo[j, 1], albedo[j, 2] = tint[j, 0] * a0, tint[j, 1] * a1, tint[j, 2] * a2
         normal[j, 0], normal[j, 1], normal[j, 2] = gx, gy, gz
     tint[j, 0] = tint[j, 1] = tint[j, 2] = 0.0
