@@ -23,7 +23,7 @@ import numpy as np
 
 import durer
 from durer.errors import SceneError
-from durer.rendering.denoise import QUALITY
+from durer.rendering.denoise import PIXEL_FILTER, QUALITY, clean_features, denoise
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "out"
@@ -73,45 +73,60 @@ def reference(path: Path, scene: durer.Scene, res: int, spp: int) -> np.ndarray:
     return img
 
 
-def emitter_pixels(scene: durer.Scene, res: int) -> np.ndarray:
-    """Pixels where some of 16 samples sees an emitter directly (max_depth 1 shows emitters only)."""
-    seen = durer.render(scene, *size(scene, res), samples=16, max_depth=1, seed=5).color
-    return seen.max(axis=2) > 0
+def emitter_pixels(path: Path, scene: durer.Scene, res: int) -> np.ndarray:
+    """Pixels where some of 1024 samples sees an emitter directly (max_depth 1 shows emitters only): the emitters'
+    own pixels, their partly covered edge pixels included (cached beside the reference)."""
+    cache = OUT / f"denoise_emitters_{path.stem}_{res}.npy"
+    if cache.exists():
+        return np.load(cache)
+    seen = durer.render(scene, *size(scene, res), samples=1024, max_depth=1, seed=5).color.max(axis=2) > 0
+    OUT.mkdir(parents=True, exist_ok=True)
+    np.save(cache, seen)
+    return seen
 
 
 def rmse(a: np.ndarray, b: np.ndarray, keep: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a[keep] - b[keep]) ** 2)))
 
 
-def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp) -> dict:
-    """RMSE of noisy renders {spp: e} and denoised ones {spp: e} against the reference, and the mean denoise time."""
+def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualities) -> dict:
+    """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {spp: e}} (the same
+    render with features and denoise=True's box filter, denoised at each OIDN quality), and OIDN's mean seconds per
+    quality."""
     scene = durer.load(path)
     ref = reference(path, scene, res, ref_spp)
-    keep = ~emitter_pixels(scene, res)
+    keep = ~emitter_pixels(path, scene, res)
     noisy = {n: rmse(durer.render(scene, *size(scene, res), samples=n, seed=1).color, ref, keep) for n in noisy_spp}
-    denoised, seconds = {}, []
+    clean = clean_features(scene.materials, path=True)
+    denoised, seconds = {q: {} for q in qualities}, {q: [] for q in qualities}
     for n in denoised_spp:
-        r = durer.render(scene, *size(scene, res), samples=n, seed=1, denoise=True)
-        denoised[n] = rmse(r.color, ref, keep)
-        seconds.append(r.denoise_seconds)
-    return dict(noisy=noisy, denoised=denoised, seconds=float(np.mean(seconds)), kept=float(keep.mean()))
+        r = durer.render(scene, *size(scene, res), samples=n, seed=1, aovs=True, **PIXEL_FILTER)  # as denoise=True
+        for q in qualities:
+            d = denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
+            denoised[q][n] = rmse(d.color, ref, keep)
+            seconds[q].append(d.seconds)
+    return dict(noisy=noisy, denoised=denoised, seconds={q: float(np.mean(v)) for q, v in seconds.items()},
+                clean=clean)
 
 
-def timing(res: int = 512, spp: int = 16) -> dict:
-    """A 16-spp render of the Cornell box at 512 x 512 without and with --denoise (each after a warm-up)."""
+def timing(qualities, res: int = 512, spp: int = 16) -> dict:
+    """A 16-spp render of the Cornell box at 512 x 512 without features, with them, and OIDN's time on it at each
+    quality (best of two each, after a warm-up)."""
     scene = durer.load(CORNELL)
-    durer.render(scene, 32, 32, samples=2, denoise=True)  # compile, load OIDN's weights
-    plain, denoised = [], []
+    r = durer.render(scene, 32, 32, samples=2, aovs=True)  # compile
+    for q in qualities:
+        denoise(r.color, r.albedo, r.shading_normals, quality=q)  # load OIDN's weights
+    plain, featured, oidn = [], [], {q: [] for q in qualities}
     for _ in range(2):
         start = time.perf_counter()
         durer.render(scene, res, res, samples=spp)
         plain.append(time.perf_counter() - start)
         start = time.perf_counter()
-        r = durer.render(scene, res, res, samples=spp, denoise=True)
-        denoised.append((time.perf_counter() - start, r.denoise_seconds))
-    t_plain = min(plain)
-    t_all, t_oidn = min(denoised)
-    return dict(plain=t_plain, total=t_all, oidn=t_oidn)
+        r = durer.render(scene, res, res, samples=spp, aovs=True)
+        featured.append(time.perf_counter() - start)
+        for q in qualities:
+            oidn[q].append(denoise(r.color, r.albedo, r.shading_normals, quality=q).seconds)
+    return dict(plain=min(plain), featured=min(featured), oidn={q: min(v) for q, v in oidn.items()})
 
 
 def picture(path: Path, res: int = 160, spp: int = 16) -> None:
@@ -131,42 +146,53 @@ def picture(path: Path, res: int = 160, spp: int = 16) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--res", type=int, default=96, help="longer image side of the error renders (default 96)")
+    ap.add_argument("--res", type=int, default=128, help="longer image side of the error renders (default 128)")
     ap.add_argument("--ref-spp", type=int, default=4096, help="samples of the reference (default 4096)")
     ap.add_argument("--quick", action="store_true", help="64 px, 1024-spp reference, noisy up to 256 spp")
+    ap.add_argument("--quality", nargs="+", default=[QUALITY], choices=("fast", "balanced", "high"),
+                    help=f"OIDN qualities to measure (default: durer's, {QUALITY})")
     ap.add_argument("--picture", type=Path, help="also write the README's side-by-side PNG here")
     ap.add_argument("--no-timing", action="store_true", help="skip the 512 x 512 timing")
     a = ap.parse_args()
-    res, ref_spp, noisy_spp = a.res, a.ref_spp, NOISY_SPP
+    res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, NOISY_SPP, a.quality
     if a.quick:
         res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in NOISY_SPP if n <= 256)
     found, skipped = scene_set()
-    print(f"# OIDN quality {QUALITY!r}; {res} px on the longer side; reference {ref_spp} spp; RMSE without the "
-          "emitters' own pixels")
+    print(f"# {res} px on the longer side; reference {ref_spp} spp (durer, other seeds); RMSE without the emitters' "
+          "own pixels")
     for line in skipped:
         print(f"# not loaded: {line}")
-    head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"denoised {n}" for n in DENOISED_SPP])
-    print(f"\n| scene | {head} | denoised 16 / noisy 128 | OIDN s |")
-    print("|---" * (len(noisy_spp) + len(DENOISED_SPP) + 3) + "|")
-    ratios = {}
+    head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in DENOISED_SPP])
+    ratio_head = " | ".join(f"{q} 16 / noisy 128" for q in qualities)
+    print(f"\n| scene | {head} | {ratio_head} | OIDN s ({', '.join(qualities)}) |")
+    print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
+    ratios = {q: {} for q in qualities}
     for path in [CORNELL] + found:
-        e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP)
-        ratio = e["denoised"][16] / e["noisy"][128]
-        ratios[path] = ratio
-        cells = [f"{e['noisy'][n]:.4f}" for n in noisy_spp] + [f"{e['denoised'][n]:.4f}" for n in DENOISED_SPP]
+        e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities)
+        for q in qualities:
+            ratios[q][path] = e["denoised"][q][16] / e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
+        cells = [f"{e['noisy'][n]:.4f}" for n in noisy_spp]
+        cells += [f"{e['denoised'][q][n]:.4f}" for q in qualities for n in DENOISED_SPP]
+        cells += [f"{ratios[q][path]:.2f}" for q in qualities]
         name = path.relative_to(SHARED) if SHARED in path.parents else path.relative_to(ROOT)
-        print(f"| {name} | {' | '.join(cells)} | {ratio:.2f} | {e['seconds']:.3f} |", flush=True)
-    in_set = sorted(ratios[p] for p in found)
-    median = in_set[len(in_set) // 2] if in_set else float("nan")
-    print(f"\nTarget: denoised 16 spp below noisy 128 spp: Cornell box {ratios[CORNELL]:.2f} "
-          f"({'met' if ratios[CORNELL] < 1 else 'NOT met'}), median scene of the set ({len(in_set)}) {median:.2f} "
-          f"({'met' if median < 1 else 'NOT met'})")
+        clean = "" if e["clean"] else " (features prefiltered)"
+        seconds = " / ".join(f"{e['seconds'][q]:.3f}" for q in qualities)
+        print(f"| {name}{clean} | {' | '.join(cells)} | {seconds} |", flush=True)
+    print()
+    for q in qualities:
+        in_set = sorted(ratios[q][p] for p in found)
+        median = in_set[len(in_set) // 2] if in_set else float("nan")
+        print(f"Target ({q}): denoised 16 spp below noisy 128 spp: Cornell box {ratios[q][CORNELL]:.2f} "
+              f"({'met' if ratios[q][CORNELL] < 1 else 'NOT met'}), median scene of the set ({len(in_set)} scenes) "
+              f"{median:.2f} ({'met' if median < 1 else 'NOT met'})")
     if not a.no_timing:
-        t = timing()
-        share = t["oidn"] / t["plain"]
-        print(f"Target: denoiser under 10% of a 16-spp 512x512 render: render {t['plain']:.2f} s, with --denoise "
-              f"{t['total']:.2f} s, of which OIDN {t['oidn']:.2f} s = {100 * share:.1f}% "
-              f"({'met' if share < 0.1 else 'NOT met'}); whole difference {100 * (t['total'] / t['plain'] - 1):.1f}%")
+        t = timing(qualities)
+        print(f"\n16-spp 512x512 Cornell box: render {t['plain']:.2f} s, with features {t['featured']:.2f} s")
+        for q in qualities:
+            share = t["oidn"][q] / t["plain"]
+            print(f"Target ({q}): denoiser under 10% of the render: OIDN {t['oidn'][q]:.2f} s = {100 * share:.1f}% "
+                  f"({'met' if share < 0.1 else 'NOT met'}); with the features' cost "
+                  f"{100 * (t['featured'] + t['oidn'][q] - t['plain']) / t['plain']:.1f}%")
     if a.picture:
         picture(a.picture)
 

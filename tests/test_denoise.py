@@ -172,3 +172,9 @@ def test_denoised_render_is_closer_to_the_reference_than_the_noisy_one(cornell):
     e_noisy, e_denoised = rmse_without_emitters(noisy.color, reference), rmse_without_emitters(denoised.color,
                                                                                               reference)
     assert e_denoised < 0.6 * e_noisy, (e_denoised, e_noisy)
+
+
+def test_denoise_quality_is_one_of_oidns_presets(cornell):
+    with pytest.raises(ValueError, match="unknown denoise quality 'ultra'"):
+        durer.render(cornell, 8, 8, denoise=True, denoise_quality="ultra")
+    assert main(["render", str(EXAMPLES / "cornell_box.xml"), "-o", "x.png", "--denoise-quality", "ultra"]) == 2

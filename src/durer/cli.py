@@ -17,7 +17,7 @@ import time
 from .errors import DurerError, UsageError
 from .io.images import check_writable
 from .io.layers import aov_files, parse_aovs, save_with_aovs
-from .options import ACCELERATORS, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions
+from .options import ACCELERATORS, DENOISE_QUALITIES, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions
 
 EXIT_USAGE = 2
 
@@ -279,6 +279,8 @@ def render_parser() -> argparse.ArgumentParser:
                         ".exr, else files beside it (out.albedo.png, ...)")
     p.add_argument("--denoise", action="store_true",
                    help='denoise the colour with Intel Open Image Denoise (needs pip install "durer[denoise]")')
+    p.add_argument("--denoise-quality", choices=DENOISE_QUALITIES, default="high",
+                   help="OIDN's preset: high (default), balanced or fast (less time, more error)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
     return p
 
@@ -298,6 +300,7 @@ def run_render(argv: list[str]) -> int:
     scene = load(a.scene, mesh_path=a.mesh_path, camera=a.camera)
     options = render_options(a, scene.render_defaults)
     options.denoise = options.denoise or a.denoise
+    options.denoise_quality = a.denoise_quality
     options.aovs = options.aovs or "albedo" in aovs
     if not aovs and options.aov_outputs:  # a Mitsuba `aov` integrator's outputs, unless --aov names others
         aovs = options.aov_outputs

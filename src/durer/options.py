@@ -8,6 +8,7 @@ SAMPLERS = ("uniform", "random", "jittered")
 FILTERS = ("box", "tent", "gaussian")
 ACCELERATORS = ("bvh", "brute")
 INTEGRATORS = ("auto", "raycast", "whitted", "path")
+DENOISE_QUALITIES = ("high", "balanced", "fast")  # Open Image Denoise's presets, slowest and best first
 
 
 @dataclass
@@ -36,7 +37,8 @@ class RenderOptions:
     hide_emitters: bool = False   # path: camera rays do not see emitters (nor the environment)
     # issue 24: the denoiser's features and Intel Open Image Denoise (rendering/denoise.py)
     aovs: bool = False            # also produce albedo and shading normals (RenderResult.albedo, .shading_normals)
-    denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs)
+    denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs, box filter)
+    denoise_quality: str = "high"  # high | balanced | fast: OIDN's preset (time against error: benchmarks/README.md)
     aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
 
     def validate(self) -> None:
@@ -62,5 +64,8 @@ class RenderOptions:
             raise ValueError(f"max_depth must be -1 (unbounded) or a non-negative integer, got {self.max_depth}")
         if int(self.rr_depth) != self.rr_depth or self.rr_depth < 1:
             raise ValueError(f"rr_depth must be a positive integer, got {self.rr_depth}")
+        if self.denoise_quality not in DENOISE_QUALITIES:
+            raise ValueError(f"unknown denoise quality {self.denoise_quality!r} (use one of "
+                             f"{', '.join(DENOISE_QUALITIES)})")
         if self.grid is not None and (len(self.grid) != 3 or min(self.grid) < 1):
             raise ValueError(f"grid needs three positive cell counts, got {self.grid}")

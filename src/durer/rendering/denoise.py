@@ -6,6 +6,11 @@ nearly so: the albedo and the shading normal of each pixel's first non-specular 
 rendering/whitted.py), filtered like the colour. When the features carry noise of their own (a glass's stochastic
 Fresnel choice, a solid texture picked per sample), OIDN's recommended "prefiltering" is applied: each feature is
 denoised by its own RT filter first, and the colour filter is then told they are clean (`cleanAux`).
+
+A denoised render's samples are filtered by a one-pixel box (PIXEL_FILTER), whatever the scene asks for: a wider
+reconstruction filter spreads each sample over several pixels, and OIDN takes the correlated noise for detail (the
+roulette scene of ../shared, filtered by its tent: 0.0039-0.0050 RMSE at 16 spp, by the box: 0.0030-0.0035;
+benchmarks/README.md).
 """
 
 from __future__ import annotations
@@ -21,7 +26,9 @@ from ..scene.materials import PhongMaterial
 from ..scene.textures import Texture
 
 INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]"'
-QUALITY = "balanced"  # OIDN's quality preset: "high" took 2.3x the time for 2-6% lower error (benchmarks/README.md)
+QUALITY = "high"  # OIDN's own default preset; RenderOptions.denoise_quality picks another (benchmarks/README.md)
+_QUALITY_CODES = {"high": 6, "balanced": 5, "fast": 4}  # OIDN_QUALITY_HIGH, _BALANCED, _FAST
+PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of a denoised render (module docstring)
 
 
 def require_oidn():
@@ -95,8 +102,7 @@ def _prefilter(oidn, albedo: np.ndarray, normal: np.ndarray, quality: str) -> tu
             with oidn.Filter(device, oidn.OIDN_FILTER_TYPE_RT) as flt:
                 flt.set_image(name, image, oidn.OIDN_FORMAT_FLOAT3)
                 flt.set_image(oidn.OIDN_IMAGE_OUTPUT, result, oidn.OIDN_FORMAT_FLOAT3)
-                flt.set_quality({"high": oidn.OIDN_QUALITY_HIGH, "balanced": oidn.OIDN_QUALITY_BALANCED,
-                                 "fast": oidn.OIDN_QUALITY_FAST}[quality])
+                flt.set_quality(_QUALITY_CODES[quality])
                 flt.commit()
                 flt.execute()
             error = device.get_error()

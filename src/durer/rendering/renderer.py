@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -41,7 +41,8 @@ class RenderResult:
     With options.aovs or options.denoise (issue 24), the denoiser's features, filtered like the colour: albedo
     float32 (H,W,3), the reflectance of each sample's first non-specular hit (seen through mirrors and glass, tinted
     by them; 0 where the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering);
-    else None. With options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds).
+    else None. With options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds); the
+    samples are then filtered by a one-pixel box whatever the scene's filter (rendering/denoise.PIXEL_FILTER).
     """
 
     color: np.ndarray
@@ -214,9 +215,10 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
                          "integrator='path'")
     start = time.perf_counter()
     if options.denoise:  # refused before anything is rendered when pyoidn is missing
-        from .denoise import require_oidn
+        from .denoise import PIXEL_FILTER, require_oidn
 
         require_oidn()
+        options = replace(options, **PIXEL_FILTER)
     if not quiet and kernels_cold():
         print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
     ctx = make_context(scene, options)
@@ -235,7 +237,8 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
         from .denoise import clean_features, denoise
 
         done = denoise(result.color, result.albedo, result.shading_normals,
-                       clean=clean_features(scene.materials, options.integrator == "path"))
+                       clean=clean_features(scene.materials, options.integrator == "path"),
+                       quality=options.denoise_quality)
         result.color, result.denoise_seconds = done.color, done.seconds
     result.seconds = time.perf_counter() - start
     return result
