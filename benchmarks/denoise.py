@@ -170,14 +170,15 @@ def main() -> None:
         found, skipped = [], []
     else:
         found, skipped = scene_set()
-    print(f"# {res} px on the longer side; reference {ref_spp} spp (durer, other seeds); RMSE without the emitters' "
-          "own pixels")
-    for line in skipped:
-        print(f"# not loaded: {line}")
-    head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in DENOISED_SPP])
-    ratio_head = " | ".join(f"{q} 16 / noisy 128" for q in qualities)
-    print(f"\n| scene | {head} | {ratio_head} | OIDN s ({', '.join(qualities)}) |")
-    print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
+    if not a.timing_only:
+        print(f"# {res} px on the longer side; reference {ref_spp} spp (durer, other seeds); RMSE without the "
+              "emitters' own pixels")
+        for line in skipped:
+            print(f"# not loaded: {line}")
+        head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in DENOISED_SPP])
+        ratio_head = " | ".join(f"{q} 16 / noisy 128" for q in qualities)
+        print(f"\n| scene | {head} | {ratio_head} | OIDN s ({', '.join(qualities)}) |")
+        print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
     ratios = {q: {} for q in qualities}
     for path in [] if a.timing_only else [CORNELL] + found:
         e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities)

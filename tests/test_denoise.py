@@ -60,6 +60,13 @@ def test_albedo_seen_through_a_mirror_is_tinted_by_it(kw):
     np.testing.assert_allclose(r.normals, np.broadcast_to((0, 0, 1), r.albedo.shape), atol=1e-6)
 
 
+def test_the_ray_caster_takes_the_first_hit():
+    """No secondary rays: the mirror's own reflectance (kd + ks + kr + kt) and normal."""
+    r = durer.render(mirror_scene(), 8, 8, integrator="raycast", aovs=True)
+    np.testing.assert_allclose(r.albedo, np.broadcast_to((0.5, 0.5, 0.5), r.albedo.shape), rtol=1e-6)
+    np.testing.assert_allclose(r.shading_normals, r.normals, atol=1e-6)
+
+
 def test_fused_and_unfused_path_tracers_give_the_same_features(monkeypatch):
     """The features through glass and mirrors (caustic scene) to the bit, on the one-kernel bounce and on the
     wavefront of accelerator queries."""
