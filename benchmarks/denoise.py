@@ -3,14 +3,15 @@ renders at 16-1024 spp, and the denoiser's time.
 
 Scenes: the Cornell box (examples/cornell_box.xml), and the set: every scene of ../shared/scenes/mitsuba/ that durer
 loads (the others are listed with the reason) and examples/caustic.xml. Each is rendered with its longer side --res
-pixels. Error: RMSE (linear radiance, every channel) against durer's own high-sample reference (--ref-spp, another
-seed; cached in benchmarks/out/), with the emitters' own pixels left out (pixels where some sample of a max_depth=1
-render sees an emitter: they are far brighter than anything else and not what a denoiser is for). Targets: denoised
-at 16 spp below undenoised at 128 spp on the Cornell box and on the median scene of the set (the ratio of the two
-errors, median over the set, the upper one for an even count); the denoiser under 10% of a 16-spp render's time at
-512 x 512 (Cornell box). --picture writes the side-by-side image of the README.
+pixels. Error: RMSE (linear radiance, every channel) against durer's own high-sample reference (--ref-spp, other
+seeds; cached in benchmarks/out/), the mean over --seeds renders up to 128 spp (one render's error at low spp is set
+by a few firefly pixels), with the emitters' own pixels left out (every pixel where one of 1024 samples of a
+max_depth=1 render sees an emitter). Targets: denoised at 16 spp below undenoised at 128 spp on the Cornell box and
+on the median scene of the set (the ratio of the two errors, median over the set, the upper one for an even count);
+the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU time, as the machine is shared).
+--picture writes the side-by-side image of the README.
 
-    PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 96] [--ref-spp 4096] [--picture PNG]
+    PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--picture PNG]
 """
 
 from __future__ import annotations
@@ -89,24 +90,27 @@ def rmse(a: np.ndarray, b: np.ndarray, keep: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a[keep] - b[keep]) ** 2)))
 
 
-def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualities) -> dict:
+def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualities, seeds: int) -> dict:
     """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {spp: e}} (the same
-    render with features and denoise=True's box filter, denoised at each OIDN quality), and OIDN's mean seconds per
-    quality."""
+    render with features and denoise=True's box filter, denoised at each OIDN quality), each the mean over `seeds`
+    seeds (one above 128 spp: one run's error at low spp is set by a few firefly pixels), and OIDN's mean seconds."""
     scene = durer.load(path)
     ref = reference(path, scene, res, ref_spp)
     keep = ~emitter_pixels(path, scene, res)
-    noisy = {n: rmse(durer.render(scene, *size(scene, res), samples=n, seed=1).color, ref, keep) for n in noisy_spp}
+    wh = size(scene, res)
+    noisy = {n: float(np.mean([rmse(durer.render(scene, *wh, samples=n, seed=k).color, ref, keep)
+                               for k in range(1, 1 + (seeds if n <= 128 else 1))])) for n in noisy_spp}
     clean = clean_features(scene.materials, path=True)
-    denoised, seconds = {q: {} for q in qualities}, {q: [] for q in qualities}
+    denoised, seconds = {q: {n: [] for n in denoised_spp} for q in qualities}, {q: [] for q in qualities}
     for n in denoised_spp:
-        r = durer.render(scene, *size(scene, res), samples=n, seed=1, aovs=True, **PIXEL_FILTER)  # as denoise=True
-        for q in qualities:
-            d = denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
-            denoised[q][n] = rmse(d.color, ref, keep)
-            seconds[q].append(d.seconds)
-    return dict(noisy=noisy, denoised=denoised, seconds={q: float(np.mean(v)) for q, v in seconds.items()},
-                clean=clean)
+        for k in range(1, 1 + seeds):
+            r = durer.render(scene, *wh, samples=n, seed=k, aovs=True, **PIXEL_FILTER)  # as denoise=True renders
+            for q in qualities:
+                d = denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
+                denoised[q][n].append(rmse(d.color, ref, keep))
+                seconds[q].append(d.seconds)
+    return dict(noisy=noisy, denoised={q: {n: float(np.mean(v)) for n, v in e.items()} for q, e in denoised.items()},
+                seconds={q: float(np.mean(v)) for q, v in seconds.items()}, clean=clean)
 
 
 def timing(qualities, res: int = 512, spp: int = 16) -> dict:
@@ -156,6 +160,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--res", type=int, default=128, help="longer image side of the error renders (default 128)")
     ap.add_argument("--ref-spp", type=int, default=4096, help="samples of the reference (default 4096)")
+    ap.add_argument("--seeds", type=int, default=3, help="renders (seeds) averaged per error up to 128 spp (default 3)")
     ap.add_argument("--quick", action="store_true", help="64 px, 1024-spp reference, noisy up to 256 spp")
     ap.add_argument("--quality", nargs="+", default=[QUALITY], choices=("fast", "balanced", "high"),
                     help=f"OIDN qualities to measure (default: durer's, {QUALITY})")
@@ -172,7 +177,7 @@ def main() -> None:
         found, skipped = scene_set()
     if not a.timing_only:
         print(f"# {res} px on the longer side; reference {ref_spp} spp (durer, other seeds); RMSE without the "
-              "emitters' own pixels")
+              f"emitters' own pixels, mean over {a.seeds} seeds up to 128 spp")
         for line in skipped:
             print(f"# not loaded: {line}")
         head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in DENOISED_SPP])
@@ -181,7 +186,7 @@ def main() -> None:
         print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
     ratios = {q: {} for q in qualities}
     for path in [] if a.timing_only else [CORNELL] + found:
-        e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities)
+        e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities, a.seeds)
         for q in qualities:
             ratios[q][path] = e["denoised"][q][16] / e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
         cells = [f"{e['noisy'][n]:.4f}" for n in noisy_spp]
