@@ -83,7 +83,7 @@ class PathTracer:
         o, d, thr, eta, prev, keys, pkeys, alive = self._state(n)
         path = (sample_index, keys, pkeys)
         L, first_t, first_n = np.empty((n, 3)), np.empty(n), np.empty((n, 3))
-        aux = self._aux(n)
+        aux = self._aux(n, fresh=False)  # start_paths sets them
         start_paths(seed_key(self.ctx.options.seed), np.ascontiguousarray(pixel, dtype=np.int64), sample_index,
                     PIXEL_KEY, np.ascontiguousarray(origins, dtype=np.float64),
                     np.ascontiguousarray(directions, dtype=np.float64), (o, d, thr, eta, prev), path[1:],
@@ -105,12 +105,20 @@ class PathTracer:
             depth += 1
         return L, first_t, first_n, *self._features(aux)
 
-    def _aux(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _aux(self, n: int, fresh: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The features' per-path arrays (tint, albedo, normal) for n paths (kernels/path/bounce.shade_path), each
-        (n, 3) with tint 1 and the rest 0, or empty when no features are wanted (the kernels never touch them)."""
+        (n, 3), or empty when no features are wanted (the kernels never touch them). fresh: tint 1 and the rest 0;
+        else views of this thread's buffers, as _state's (their values are start_paths' to set, and trace's caller
+        copies the features out before the thread traces again)."""
         if not self.features:
             return np.ones((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
-        return np.ones((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        if fresh:
+            return np.ones((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        buffers = getattr(self._local, "aux", None)
+        if buffers is None or len(buffers[0]) < n:
+            size = max(n, BATCH)
+            buffers = self._local.aux = (np.empty((size, 3)), np.empty((size, 3)), np.empty((size, 3)))
+        return tuple(b[:n] for b in buffers)
 
     def _features(self, aux: tuple) -> tuple[np.ndarray | None, np.ndarray | None]:
         """(albedo, normal) of trace's result: aux's, or (None, None) when no features are wanted."""
