@@ -16,7 +16,8 @@ import time
 
 from .errors import DurerError, UsageError
 from .io.images import check_writable
-from .options import ACCELERATORS, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions, thread_count
+from .io.layers import aov_files, parse_aovs, save_with_aovs
+from .options import ACCELERATORS, DENOISE_QUALITIES, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions, thread_count
 
 EXIT_USAGE = 2
 
@@ -312,6 +313,13 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--normals", metavar="FILE", help="also write normals as |n| per channel (.npy/.pfm: raw)")
     p.add_argument("--linear", action="store_true",
                    help="write 8-bit colour without the sRGB curve, truncated as the course does")
+    p.add_argument("--aov", metavar="LIST",
+                   help="also write albedo, normals and/or depth (comma-separated): layers of the image when OUT is "
+                        ".exr, else files beside it (out.albedo.png, ...)")
+    p.add_argument("--denoise", action="store_true",
+                   help='denoise the colour with Intel Open Image Denoise (needs pip install "durer[denoise]")')
+    p.add_argument("--denoise-quality", choices=DENOISE_QUALITIES, default="high",
+                   help="OIDN's preset: high (default), balanced or fast (less time, more error)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
     return p
 
@@ -327,17 +335,25 @@ def _run_render(a: argparse.Namespace) -> int:
 
     render_options(a)  # a bad flag is reported before anything is read
     depth = _depth(a.depth, "--depth") if a.depth else None
-    _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
+    aovs = _aovs(a)
+    _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p] + aov_files(a.output, aovs))
     from . import load
 
     if a.size is not None:
         check_size(a.size[0], a.size[1], a.samples or 1)
     scene = load(a.scene, mesh_path=a.mesh_path, camera=a.camera)
     options = render_options(a, scene.render_defaults)
+    options.denoise = options.denoise or a.denoise
+    options.denoise_quality = a.denoise_quality
+    options.aovs = options.aovs or "albedo" in aovs
+    if not aovs and options.aov_outputs:  # a Mitsuba `aov` integrator's outputs, unless --aov names others
+        aovs = options.aov_outputs
+        _check_outputs(aov_files(a.output, aovs))
     size = scene_size(a, scene)
     start = time.perf_counter()
     result = render(scene, size[0], size[1], options=options, quiet=a.quiet)
-    result.save(a.output, course=a.linear)
+    layers = {"albedo": result.albedo, "normals": result.normals, "depth": result.depth}
+    save_with_aovs(a.output, result.color, {n: layers[n] for n in aovs}, course=a.linear)
     if depth:
         result.save_depth(depth[2], depth[0], depth[1])
     if a.normals:
@@ -353,6 +369,15 @@ def scene_size(a: argparse.Namespace, scene) -> tuple[int, int]:
     render, explain and preview, so a pixel and --samples mean the same in all three)."""
     film = scene.render_defaults or {}
     return a.size or ((film["width"], film["height"]) if "width" in film else _default_size(scene.camera))
+
+
+def _aovs(a: argparse.Namespace) -> tuple[str, ...]:
+    """The outputs --aov asks for, after refusing --denoise without pyoidn (both before anything is rendered)."""
+    if a.denoise:
+        from .rendering.denoise import require_oidn
+
+        require_oidn()
+    return parse_aovs(a.aov) if a.aov is not None else ()
 
 
 def _default_size(camera, longer: int = 512) -> tuple[int, int]:

@@ -26,3 +26,7 @@ class SceneError(DurerError):
 
 class UsageError(DurerError):
     """A bad command-line flag or option value."""
+
+
+class MissingDependency(DurerError, ImportError):
+    """An optional package a requested feature needs is not installed (the message says what to install)."""

@@ -15,6 +15,7 @@ INTEGRATORS = ("auto", "raycast", "whitted", "path")
 # course's widest is 2.3), and the uniform grid's cells (a few int64 arrays of that length; 1000^3 took 16.7 GB)
 MAX_FILTER_REACH = 16.0
 MAX_GRID_CELLS = 1 << 24
+DENOISE_QUALITIES = ("high", "balanced", "fast")  # Open Image Denoise's presets, slowest and best first
 
 
 @dataclass
@@ -41,6 +42,11 @@ class RenderOptions:
     max_depth: int = -1           # path: Mitsuba's max_depth (1 emitters only, 2 direct light, -1 unbounded)
     rr_depth: int = 5             # path: Russian roulette from this depth on
     hide_emitters: bool = False   # path: camera rays do not see emitters (nor the environment)
+    # the denoiser's features and Intel Open Image Denoise (rendering/denoise.py)
+    aovs: bool = False            # also produce albedo and shading normals (RenderResult.albedo, .shading_normals)
+    denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs, box filter)
+    denoise_quality: str = "high"  # high | balanced | fast: OIDN's preset (time against error: benchmarks/README.md)
+    aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
 
     def filter_reach(self) -> float:
         """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent) or 2 sigma (gaussian)."""
@@ -75,6 +81,9 @@ class RenderOptions:
             raise ValueError(f"max_depth must be -1 (unbounded) or a non-negative integer, got {self.max_depth}")
         if int(self.rr_depth) != self.rr_depth or self.rr_depth < 1:
             raise ValueError(f"rr_depth must be a positive integer, got {self.rr_depth}")
+        if self.denoise_quality not in DENOISE_QUALITIES:
+            raise ValueError(f"unknown denoise quality {self.denoise_quality!r} (use one of "
+                             f"{', '.join(DENOISE_QUALITIES)})")
         if self.grid is not None:
             check_grid(self.grid)
 

@@ -22,6 +22,9 @@ from .mitsuba_xml import MAX_DEPTH
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 OUT_OF_SCOPE = ("volpath", "volpathmis", "prbvolpath")  # participating media: not in durer
 
+# Mitsuba's aov types durer computes, and the output each becomes (`durer render` writes them: io/layers.py)
+AOV_TYPES = {"albedo": "albedo", "sh_normal": "normals", "geo_normal": "normals", "depth": "depth"}
+
 
 class Builder:
     """Walks the plugin tree once, collecting materials, shapes, lights and render defaults. `search` is the file
@@ -113,8 +116,13 @@ class Builder:
         p = Props(node)
         t = node.type
         if t in ("moment", "aov"):  # wrappers: the RGB image is the nested integrator's
-            p.get("aovs", None, str)
+            aovs = p.get("aovs", None, str)
             p.done()
+            if t == "aov" and aovs:  # the extra outputs durer computes (AOV_TYPES); others (position, uv) are not
+                kinds = [item.strip().partition(":")[2] for item in aovs.split(",")]
+                outputs = tuple(dict.fromkeys(AOV_TYPES[k] for k in kinds if k in AOV_TYPES))
+                self.defaults["aov_outputs"] = outputs
+                self.defaults["aovs"] = "albedo" in outputs
             nested = [c for c in node.children if c.tag in ("integrator", "ref")]
             if len(nested) != 1 or len(node.children) != 1:
                 raise node.error(f"integrator '{t}': durer renders the RGB image of exactly one nested "

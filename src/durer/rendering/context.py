@@ -42,11 +42,16 @@ class RenderContext:
 
 @dataclass
 class SampleResult:
-    """Per-ray results: linear colour (N,3), t of the closest hit (inf on a miss), world normal (N,3)."""
+    """Per-ray results: linear colour (N,3), t of the closest hit (inf on a miss), world normal (N,3); and the
+    denoiser's features, None when the integrator does not produce them (options.aovs off): the first
+    non-specular hit's albedo (N,3), seen through mirrors and glass, and its shading normal (N,3). The film
+    filters every feature that is not None like the colour (units.py)."""
 
     color: np.ndarray
     t: np.ndarray
     normal: np.ndarray
+    albedo: np.ndarray | None = None
+    shading_normal: np.ndarray | None = None
 
 
 def make_context(scene: Scene, options: RenderOptions) -> RenderContext:

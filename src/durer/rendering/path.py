@@ -59,6 +59,8 @@ class PathTracer:
         self._bvh = ctx.accel.kernel_tree() if numba_shading else None
         self._fused = self._bvh is not None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
+        # the denoiser's features: each path's first non-specular hit's albedo and normal
+        self.features = bool(o.aovs or o.denoise)
 
     def __getstate__(self) -> dict:
         return {k: v for k, v in self.__dict__.items() if k != "_local"}  # buffers belong to this process's threads
@@ -68,7 +70,8 @@ class PathTracer:
         self._local = threading.local()
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
-        """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit."""
+        """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit, and the
+        features: albedo and normal (N,3) of the first non-specular hit (None unless options.aovs or denoise)."""
         if self._fused:
             return self._trace_fused(origins, directions, t_min, pixel, sample_index)
         return self._trace_unfused(origins, directions, t_min, pixel, sample_index)
@@ -81,26 +84,46 @@ class PathTracer:
         o, d, thr, eta, prev, keys, pkeys, alive = self._state(n)
         path = (sample_index, keys, pkeys)
         L, first_t, first_n = np.empty((n, 3)), np.empty(n), np.empty((n, 3))
+        aux = self._aux(n, fresh=False)  # start_paths sets them
         start_paths(seed_key(self.ctx.options.seed), np.ascontiguousarray(pixel, dtype=np.int64), sample_index,
                     PIXEL_KEY, np.ascontiguousarray(origins, dtype=np.float64),
                     np.ascontiguousarray(directions, dtype=np.float64), (o, d, thr, eta, prev), path[1:],
-                    (L, first_t, first_n))
+                    (L, first_t, first_n), aux)
         live = np.arange(n)
         bsdf, lights = self.table.packed(), self.emitters.pack()
         env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
         depth, tmin, work = 0, float(t_min), scratch(self._bvh[-1])
         while len(live) and depth < MAX_BOUNCES:
             last = 0 <= self.max_depth <= depth + 1
-            scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth)
+            scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth, self.features)
             run_pieces(trace_bounce, PIECES, live, o, d, thr, eta, prev, path, self._bvh, self._surfaces,
-                       self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, (first_t, first_n), alive,
-                       work)
+                       self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, aux, (first_t, first_n),
+                       alive, work)
             if last:
                 break
             live = live[alive[:len(live)]]
             tmin = 0.0
             depth += 1
-        return L, first_t, first_n
+        return L, first_t, first_n, *self._features(aux)
+
+    def _aux(self, n: int, fresh: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The features' per-path arrays (tint, albedo, normal) for n paths (kernels/path/bounce.shade_path), each
+        (n, 3), or empty when no features are wanted (the kernels never touch them). fresh: tint 1 and the rest 0;
+        else views of this thread's buffers, as _state's (their values are start_paths' to set, and trace's caller
+        copies the features out before the thread traces again)."""
+        if not self.features:
+            return np.ones((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+        if fresh:
+            return np.ones((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        buffers = getattr(self._local, "aux", None)
+        if buffers is None or len(buffers[0]) < n:
+            size = max(n, BATCH)
+            buffers = self._local.aux = (np.empty((size, 3)), np.empty((size, 3)), np.empty((size, 3)))
+        return tuple(b[:n] for b in buffers)
+
+    def _features(self, aux: tuple) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """(albedo, normal) of trace's result: aux's, or (None, None) when no features are wanted."""
+        return (aux[1], aux[2]) if self.features else (None, None)
 
     def _state(self, n: int) -> tuple[np.ndarray, ...]:
         """The fused wavefront's per-path state for n paths (o, d, thr, eta, prev, keys, pixel keys, alive), as
@@ -141,6 +164,7 @@ class PathTracer:
         pkeys = key(seed, pixel, np.full(n, PIXEL_KEY))
         L = np.zeros((n, 3))
         first_t, first_n = np.full(n, np.inf), np.zeros((n, 3))
+        aux = self._aux(n)
         idx = np.arange(n)
         # every bounce works in views of these buffers (first m rows): fresh arrays per bounce measured a quarter
         # of the CPU time in page faults; live paths are gathered from the `nxt` arrays back into the state
@@ -172,7 +196,8 @@ class PathTracer:
                 env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
             run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, slot_em, slot,
                        (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
-                       tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth), L,
+                       tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth,
+                                                     self.features), L, aux,
                        (shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok), (nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta))
             shaded = L.copy() if record is not None else None
             if last:
@@ -197,7 +222,7 @@ class PathTracer:
                 np.take(src, alive, axis=0, out=dst[:m], mode="clip")
             tmin = 0.0
             depth += 1
-        return L, first_t, first_n
+        return L, first_t, first_n, *self._features(aux)
 
     def _misses(self, d: np.ndarray, hit: np.ndarray, depth: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Radiance (N,3) seen by the rays that escape, its light-sampling pdf (N,) and whether it is an emitter
@@ -272,5 +297,6 @@ def path_trace(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, 
     if tracer is None:  # a context not prepared for the path tracer (explain, tests): build it once here
         prepare_path(ctx)
         tracer = ctx.prepared["path"]
-    color, t, normal = tracer.trace(origins, directions, t_min, np.asarray(pixel), np.asarray(sample))
-    return SampleResult(color, t, normal)
+    color, t, normal, albedo, shading = tracer.trace(origins, directions, t_min, np.asarray(pixel),
+                                                     np.asarray(sample))
+    return SampleResult(color, t, normal, albedo=albedo, shading_normal=shading)

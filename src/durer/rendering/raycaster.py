@@ -84,15 +84,42 @@ def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
     m = hits.hit
     uv, tint = hit_uv(ctx, hits, points), hit_tint(ctx, hits, points)
     uv, tint = (None if a is None else a[m] for a in (uv, tint))
+    albedo = np.zeros((n, 3)) if ctx.options.aovs or ctx.options.denoise else None
     if scene.lights is None:  # assignment 1: the object's own colour (blended through any solid textures)
         table = MaterialTable.from_materials(scene.materials)
         flat = np.zeros((int(m.sum()), 3))
         for leaf, weight in leaf_weights(scene.materials, mat[m], points[m]):
             flat += weight[:, None] * diffuse_colors(scene.materials, table.diffuse, leaf, uv, tint)
         color[m] = flat
+        if albedo is not None:
+            albedo[m] = np.clip(flat, 0.0, 1.0)
     elif m.any():
         color[m] = shade_local(ctx, points[m], normals[m], directions[m], mat[m], uv=uv, tint=tint)
-    return SampleResult(color, hits.t, normals)
+        if albedo is not None:
+            albedo[m] = hit_reflectance(ctx, mat[m], points[m], uv, tint)[0]
+            if not ctx.options.shade_back:  # back faces are black, and so is their albedo
+                albedo[m & (np.einsum("ij,ij->i", directions, normals) > 0)] = 0.0
+    if albedo is None:
+        return SampleResult(color, hits.t, normals)
+    return SampleResult(color, hits.t, normals, albedo=albedo, shading_normal=normals)
+
+
+def hit_reflectance(ctx: RenderContext, mat: np.ndarray, points: np.ndarray, uv: np.ndarray | None,
+                    tint: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The denoiser's albedo of course materials at hits (issue 24): the sum of the material's colours kd
+    (textured and tinted) + ks + kr + kt, blended through solid textures and clamped to [0, 1], and whether the
+    surface has a lobe that is not a perfect mirror or refraction (kd or ks), where the integrators stop following
+    mirror and refraction rays for it. The path tracer's PHONG albedo (kernels/path/bsdf.bsdf_albedo) is the same
+    sum."""
+    table = ctx.materials if ctx.materials is not None else MaterialTable.from_materials(ctx.scene.materials)
+    reflectance = np.zeros((len(mat), 3))
+    smooth = np.zeros(len(mat), bool)
+    for leaf, weight in leaf_weights(ctx.scene.materials, mat, points):
+        kd = diffuse_colors(ctx.scene.materials, table.diffuse, leaf, uv, tint)
+        ks = table.specular[leaf]
+        reflectance += weight[:, None] * (kd + ks + table.reflective[leaf] + table.transparent[leaf])
+        smooth |= (weight > 0) & ((kd.max(axis=1) > 0) | (ks.max(axis=1) > 0))
+    return np.clip(reflectance, 0.0, 1.0), smooth
 
 
 def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visible=None, uv=None,

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 from ..options import RenderOptions
 from ..scene.graph import Scene
@@ -36,9 +37,23 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
     width, height, options = resolve(scene, width, height, options, kwargs)
     check_size(width, height, options.samples, options)
     start = time.perf_counter()
+    if options.denoise:  # refused before anything is rendered when pyoidn is missing
+        from .denoise import PIXEL_FILTER, require_oidn
+
+        require_oidn()
+        options = replace(options, **PIXEL_FILTER)
     if not quiet:  # one line saying what compiles and for how long, when Numba's cache lacks it (kernel_cache.py)
         compile_notice(options, scene)
-    return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+    result = render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+    if options.denoise:
+        from .denoise import clean_features, denoise
+
+        done = denoise(result.color, result.albedo, result.shading_normals,
+                       clean=clean_features(scene.materials, options.integrator == "path"),
+                       quality=options.denoise_quality)
+        result.color, result.denoise_seconds = done.color, done.seconds
+        result.seconds = time.perf_counter() - start
+    return result
 
 
 def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,

@@ -19,6 +19,11 @@ class RenderResult:
     color: float32 (H,W,3) linear radiance; depth: float32 (H,W) ray parameter t of the closest hit (inf on a miss);
     normals: float32 (H,W,3) unit world-space normals of the closest hit (0 on a miss). With several samples per
     pixel, depth and normals are those of the sample nearest the pixel's centre.
+    With options.aovs or options.denoise, the denoiser's features, filtered like the colour: albedo (H,W,3), the
+    reflectance of each sample's first non-specular hit (seen through mirrors and glass, tinted by them; 0 where
+    the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering); else None. With
+    options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds); the samples are
+    then filtered by a one-pixel box whatever the scene's filter (rendering/denoise.PIXEL_FILTER).
     """
 
     color: np.ndarray
@@ -29,6 +34,12 @@ class RenderResult:
     # per-sample outputs of the integrator beyond colour (SampleResult's extra (N,k) fields, e.g. albedo), each
     # filtered with the colour's weights into a float32 (H,W,k) image
     aovs: dict[str, np.ndarray] = field(default_factory=dict)
+    denoise_seconds: float = 0.0
+
+    @property
+    def shading_normals(self) -> np.ndarray | None:
+        """The filtered shading normal of the first non-specular hit (H,W,3), with the denoiser's features."""
+        return self.aovs.get("shading_normal")
 
     @property
     def albedo(self) -> np.ndarray | None:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .context import RenderContext, SampleResult
-from .raycaster import hit_tint, hit_uv, raycast, shade_local, surface
+from .raycaster import hit_reflectance, hit_tint, hit_uv, raycast, shade_local, surface
 from .shading import light_directions
 from .texturing import leaf_weights
 
@@ -119,6 +119,10 @@ def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
     pixel = np.arange(n)
     throughput = np.ones((n, 3))
     weight = np.ones(n)
+    # the denoiser's features (issue 24): albedo and normal of the first surface with a kd or ks lobe along each
+    # branch, seen through mirrors and refraction with the branch's throughput; `seek`: the ray is still looking
+    features = (np.zeros((n, 3)), np.zeros((n, 3))) if opts.aovs or opts.denoise else None
+    seek = np.ones(n, dtype=bool)
 
     for level in range(opts.bounces + 1):
         if len(ray_o) == 0:
@@ -142,13 +146,16 @@ def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
         uv, tint = (None if a is None else a[sel] for a in (hit_uv(ctx, hits, points), hit_tint(ctx, hits, points)))
         local = shade_local(ctx, p, geo_normals[sel], d, m, light_visible=visible, uv=uv, tint=tint)
         np.add.at(color, pixel[sel], throughput[sel] * local)
+        if features is not None:
+            seek[sel] &= ~_record_features(ctx, features, pixel[sel], throughput[sel], seek[sel], p, m, uv, tint,
+                                           geo_normals[sel], back)
         if level == opts.bounces:
             break
 
         # Secondary rays. Without -shade_back a back face is black, and so is everything seen through it.
         alive = np.ones(len(sel), dtype=bool) if opts.shade_back else ~back
         reflective, transparent, ior = secondary_coefficients(ctx, m, p)
-        new_o, new_d, new_pix, new_tp, new_w = [], [], [], [], []
+        new_o, new_d, new_pix, new_tp, new_w, new_seek = [], [], [], [], [], []
 
         w_refl = weight[sel] * np.linalg.norm(reflective, axis=1)
         r = alive & np.any(reflective > 0, axis=1) & (w_refl >= opts.weight)
@@ -158,6 +165,7 @@ def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
             new_pix.append(pixel[sel][r])
             new_tp.append(throughput[sel][r] * reflective[r])
             new_w.append(w_refl[r])
+            new_seek.append(seek[sel][r])
 
         w_tran = weight[sel] * np.linalg.norm(transparent, axis=1)
         t = alive & np.any(transparent > 0, axis=1) & (w_tran >= opts.weight)
@@ -174,6 +182,7 @@ def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
             new_pix.append(pixel[sel][t][ok])
             new_tp.append(throughput[sel][t][ok] * transparent[t][ok])
             new_w.append(w_tran[t][ok])
+            new_seek.append(seek[sel][t][ok])
 
         if not new_o:
             break
@@ -182,6 +191,29 @@ def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
         pixel = np.concatenate(new_pix)
         throughput = np.concatenate(new_tp)
         weight = np.concatenate(new_w)
+        seek = np.concatenate(new_seek)
         ray_tmin = RAY_EPSILON
 
-    return SampleResult(color, first_t, first_normal)
+    if features is None:
+        return SampleResult(color, first_t, first_normal)
+    albedo, normal = features
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    return SampleResult(color, first_t, first_normal, albedo=albedo, shading_normal=normal)
+
+
+def _record_features(ctx: RenderContext, features: tuple[np.ndarray, np.ndarray], pixel: np.ndarray,
+                     throughput: np.ndarray, seek: np.ndarray, points: np.ndarray, mat: np.ndarray, uv, tint,
+                     normals: np.ndarray, back: np.ndarray) -> np.ndarray:
+    """Add the albedo (throughput x hit_reflectance) and the normal (weighted by the throughput's mean; the
+    branches' normals are blended and made unit at the end) of the hits still seeking features whose surface has
+    a kd or ks lobe, or is a back face that shade_back leaves black (albedo 0). Returns the mask of hits that
+    found theirs; the others (mirrors, clear glass) hand the search on to their reflected and refracted rays."""
+    reflectance, smooth = hit_reflectance(ctx, mat, points, uv, tint)
+    black = back & (not ctx.options.shade_back)
+    found = seek & (smooth | black)
+    lit = found & ~black
+    albedo, normal = features
+    np.add.at(albedo, pixel[lit], throughput[lit] * reflectance[lit])
+    np.add.at(normal, pixel[found], throughput[found].mean(axis=1, keepdims=True) * normals[found])
+    return found

@@ -14,7 +14,7 @@ import math
 import numba as nb
 
 from ..common import JIT, MISS, SPHERE, TRIANGLE
-from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_eval, bsdf_sample
+from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_albedo, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
 from .qmc import sobol2, uniform1
 from .warps import frame3, power_heuristic1, to_local3, to_world3
@@ -36,18 +36,22 @@ def dim2(depth, k):
 
 @nb.njit(**JIT, inline="always")
 def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample, keys, pkeys, thr, eta, prev, bsdf,
-               lights, env, scalars, L):
+               lights, env, scalars, L, aux):
     """Shade one path after its closest hit: the body of shade_bounce, shared with the fused bounce of
     kernels/path/wavefront.py (inlined into both).
 
     ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, geometric normal and material slots (se as hit,
     s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped; j the
     path's row in L, sample, keys, pkeys; row its row in env; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y,
-    z) its state. Adds found light to L[j]; returns (shadow ray: valid, origin, direction, t_max, contribution, and
-    next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
+    z) its state. Adds found light to L[j]; with scalars[4] (features wanted) records the first non-specular hit's
+    albedo and normal in aux = (tint, albedo, normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid,
+    origin, direction, t_max, contribution, and next ray: throughput (0: the path ended), origin, direction, prev,
+    eta), each as scalars."""
     P, T = bsdf
     K, _, F, _, _, _, tri_em, sph_em = lights
-    depth, emit, last, rr_depth = scalars
+    depth, emit, last, rr_depth, want = scalars
+    tint = aux[0]
+    seek = want and (tint[j, 0] > 0 or tint[j, 1] > 0 or tint[j, 2] > 0)
     count = K.shape[0]
     ox, oy, oz, dx, dy, dz = ray
     t0, t1, t2 = thr
@@ -84,6 +88,8 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
         L[j, 0] += t0 * miss[0] * w
         L[j, 1] += t1 * miss[1] * w
         L[j, 2] += t2 * miss[2] * w
+    if seek:
+        seek = _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux) and not last
     if not hit or last or s < 0:
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
     sgn = -1.0 if P[s, FLIP] != 0 else 1.0
@@ -112,6 +118,9 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
     u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 1))
     wl, bw, bpdf, delta, beta = bsdf_sample(P, T, s, wi, u, u0, u1)
     t0, t1, t2 = t0 * bw[0], t1 * bw[1], t2 * bw[2]
+    if seek:  # through a mirror or glass: the tint of the lobe taken, without the radiance scaling of refraction
+        b2 = beta * beta
+        tint[j, 0], tint[j, 1], tint[j, 2] = tint[j, 0] * bw[0] * b2, tint[j, 1] * bw[1] * b2, tint[j, 2] * bw[2] * b2
     e2 = eta * beta
     if rr_depth <= depth + 1:
         q = min(max(t0, t1, t2) * e2 * e2, 0.95)
@@ -130,9 +139,34 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
             (wx / ln, wy / ln, wz / ln), (bpdf, 1.0 if delta else 0.0, px, py, pz), e2)
 
 
+@nb.njit(**JIT, inline="always")
+def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
+    """The denoiser's features of path j at this hit: on an emitter seen from its emitting side, its radiance's
+    colour (scaled to a maximum of 1: the denoiser then sees the light's edge, which a light with the ceiling's BSDF
+    would not show); on a surface with a non-delta lobe, bsdf_albedo; either times the tint so far, with the
+    geometric normal, written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does where the path
+    escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass), whose sampled lobe
+    multiplies the tint in shade_path."""
+    tint, albedo, normal = aux
+    if hit and s >= 0:
+        sgn = -1.0 if P[s, FLIP] != 0 else 1.0
+        wiz = -(dx * gx + dy * gy + dz * gz) * sgn
+        glow = max(P[s, EMISSION], P[s, EMISSION + 1], P[s, EMISSION + 2])
+        if glow > 0 and wiz > 0:
+            a0, a1, a2 = P[s, EMISSION] / glow, P[s, EMISSION + 1] / glow, P[s, EMISSION + 2] / glow
+        elif P[s, SMOOTH] == 0:
+            return True
+        else:
+            a0, a1, a2 = bsdf_albedo(P, s, wiz)
+        albedo[j, 0], albedo[j, 1], albedo[j, 2] = tint[j, 0] * a0, tint[j, 1] * a1, tint[j, 2] * a2
+        normal[j, 0], normal[j, 1], normal[j, 2] = gx, gy, gz
+    tint[j, 0] = tint[j, 1] = tint[j, 2] = 0.0
+    return False
+
+
 @nb.njit(**JIT)
 def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
-                 shadow, nxt, i0, i1):
+                 aux, shadow, nxt, i0, i1):
     """Shade paths i0..i1 of a wavefront after its closest-hit query (shade_path on each).
 
     o, d (n, 3) the rays; hit_* the Hits; ng (n, 3) geometric normals; slot_em the hit's material slot,
@@ -140,9 +174,10 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
     prev (n, 5): pdf of the last BSDF sample, its delta flag, the point it left from); misses = (radiance (n,3),
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
     radiance, params, triangles, normals, cdf, triangle -> emitter, sphere -> emitter); env = environment-map
-    draws (directions, pdfs, weights) per path; scalars = (depth, emit, last, rr_depth).
-    Adds found light to L[idx]; writes each path's shadow ray: shadow = (origin, direction, t_max, contribution,
-    valid), and its next ray: nxt = (origin, direction, prev as above, throughput (0: the path ended), eta)."""
+    draws (directions, pdfs, weights) per path; scalars = (depth, emit, last, rr_depth, features wanted).
+    Adds found light to L[idx] (and features to aux's rows idx, as shade_path); writes each path's shadow ray:
+    shadow = (origin, direction, t_max, contribution, valid), and its next ray: nxt = (origin, direction, prev as
+    above, throughput (0: the path ended), eta)."""
     idx, sample, keys, pkeys, thr, eta, prev = path
     miss_le, miss_pdf, miss_em = misses
     shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = shadow
@@ -154,7 +189,7 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
             ng[i, 0], ng[i, 1], ng[i, 2], slot_em[i], slot[i],
             (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], i, sample, keys, pkeys,
             (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
-            bsdf, lights, env, scalars, L)
+            bsdf, lights, env, scalars, L, aux)
         shadow_ok[i] = ok
         if ok:
             shadow_o[i, 0], shadow_o[i, 1], shadow_o[i, 2] = so

@@ -321,3 +321,27 @@ def sample_kernel(P, T, slot, wi, u1, u2, wo, weight, pdf, delta, eta):
                                                      u2[i, 0], u2[i, 1])
         wo[i, 0], wo[i, 1], wo[i, 2] = o
         weight[i, 0], weight[i, 1], weight[i, 2] = w
+
+
+@nb.njit(**JIT)
+def bsdf_albedo(P, s, wiz):
+    """The reflectance of slot s seen from a direction of local cos(theta) wiz, as the denoiser's albedo feature
+    (rendering/path.py): a diffuse BSDF's reflectance, a plastic's diffuse reflectance, a rough conductor's
+    specular reflectance times its Fresnel reflectance at normal incidence, the sum of a course Phong material's
+    lobes (scaled to at most 1, as the table holds them). Zero for one-sided BSDFs seen from behind, and for
+    smooth dielectrics and conductors (the path goes on through them: their albedo is what they show)."""
+    k = P[s, KIND]
+    if P[s, TWOSIDED] != 0:
+        wiz = abs(wiz)
+    if k == PHONG:
+        return (P[s, C1] + P[s, C2] + P[s, C3] + P[s, C4], P[s, C1 + 1] + P[s, C2 + 1] + P[s, C3 + 1] + P[s, C4 + 1],
+                P[s, C1 + 2] + P[s, C2 + 2] + P[s, C3 + 2] + P[s, C4 + 2])
+    if not wiz > 0:
+        return 0.0, 0.0, 0.0
+    if k == DIFFUSE or k == PLASTIC or k == ROUGHPLASTIC:
+        return P[s, C1], P[s, C1 + 1], P[s, C1 + 2]
+    if k == ROUGHCONDUCTOR:
+        return (P[s, C1] * fresnel_conductor1(1.0, P[s, C3], P[s, C4]),
+                P[s, C1 + 1] * fresnel_conductor1(1.0, P[s, C3 + 1], P[s, C4 + 1]),
+                P[s, C1 + 2] * fresnel_conductor1(1.0, P[s, C3 + 2], P[s, C4 + 2]))
+    return 0.0, 0.0, 0.0

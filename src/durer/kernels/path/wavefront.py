@@ -44,7 +44,7 @@ def scratch(stack_size: int) -> tuple:
 # so no array can leak; the scratch comes from the caller.
 @nb.njit(**JIT, _nrt=False)
 def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L,
-                 first, alive, scratch, p0, p1):
+                 aux, first, alive, scratch, p0, p1):
     """Bounce `scalars[0]` of the paths `live`, pieces p0..p1 of PIECES: each path traced, shaded and advanced
     in place.
 
@@ -53,19 +53,20 @@ def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, 
     keys) (n,); accel = the one-level BVH's arrays (BVHAccelerator._args: bounds, child, leaf slots and
     triangles, spheres, planes, stack size); surfaces = CompiledScene.flat's arrays as hit_surfaces takes them;
     miss = (radiance r, g, b, light pdf, is an emitter) of every escaping ray; bsdf, lights, env and scalars as
-    shade_bounce's; t_min of the rays. Adds found light to L (n, 3); on bounce 0 writes each path's first hit to
-    first = (t (n,), geometric normal (n, 3)); alive[k] says whether path live[k] goes on. scratch = scratch()."""
+    shade_bounce's; t_min of the rays. Adds found light to L (n, 3) and features to aux as shade_path; on bounce 0
+    writes each path's first hit to first = (t (n,), geometric normal (n, 3)); alive[k] says whether path live[k]
+    goes on. scratch = scratch()."""
     m = live.shape[0]
     for piece in range(p0, p1):
         stack_node, stack_t, dist = scratch[0][piece], scratch[1][piece], scratch[2][piece]
         for k in range(m * piece // PIECES, m * (piece + 1) // PIECES):
             _one_path(live[k], k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars,
-                      t_min, L, first, alive, stack_node, stack_t, dist)
+                      t_min, L, aux, first, alive, stack_node, stack_t, dist)
 
 
 @nb.njit(**JIT, inline="always")
-def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L, first,
-              alive, stack_node, stack_t, dist):
+def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L, aux,
+              first, alive, stack_node, stack_t, dist):
     """trace_bounce's work on path i (live[k])."""
     sample, keys, pkeys = path
     bounds, child, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o, pl_n, pl_off, _ = accel
@@ -87,7 +88,7 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
         (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, gx, gy, gz, s, s, miss, i, i, sample, keys, pkeys,
         (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
-        bsdf, lights, env, scalars, L)
+        bsdf, lights, env, scalars, L, aux)
     if ok:
         _, blocker = _planes(pl_n, pl_off, so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st)
         if blocker < 0 and not _any(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
@@ -106,14 +107,21 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
 
 
 @nb.njit(**JIT)
-def start_paths(seed_key, pixel, sample, pixel_sample, origins, directions, state, streams, out):
+def start_paths(seed_key, pixel, sample, pixel_sample, origins, directions, state, streams, out, aux):
     """The wavefront's state for camera rays (origins, directions (n, 3)) of (pixel, sample) in one pass, as the
     NumPy of the unfused wavefront makes it (the same bits): state = (o, unit d, throughput 1, eta 1, prev = (1, 1,
     origin)); streams = (keys, pixel keys): rendering/sampling.key of (seed, pixel, sample) and of (seed, pixel,
-    pixel_sample), seed_key = the seed's mix; out = (L = 0, first t = inf, first normal = 0)."""
+    pixel_sample), seed_key = the seed's mix; out = (L = 0, first t = inf, first normal = 0); aux = the features'
+    (tint = 1, albedo = 0, normal = 0), or empty arrays when no features are wanted."""
     o, d, thr, eta, prev = state
     keys, pkeys = streams
     L, first_t, first_n = out
+    tint, albedo, normal = aux
+    if tint.shape[0]:
+        for i in range(pixel.shape[0]):
+            for c in range(3):
+                tint[i, c] = 1.0
+                albedo[i, c] = normal[i, c] = 0.0
     pk = np.uint64(pixel_sample) * _SAMPLE_MIX
     for i in range(pixel.shape[0]):
         k = mix64(np.uint64(pixel[i]) + seed_key)

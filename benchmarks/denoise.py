@@ -1,0 +1,221 @@
+"""Denoising (issue 24): the error of OIDN-denoised path-traced renders at 4, 16 and 64 spp next to undenoised
+renders at 16-1024 spp, and the denoiser's time.
+
+Scenes: the Cornell box (examples/cornell_box.xml), and the set: every scene of ../shared/scenes/mitsuba/ that durer
+loads (the others are listed with the reason) and examples/caustic.xml. Each is rendered with its longer side --res
+pixels. Error: RMSE (linear radiance, every channel) against durer's own high-sample reference (--ref-spp, other
+seeds; cached in benchmarks/out/), the mean over --seeds renders up to 128 spp (one render's error at low spp is set
+by a few firefly pixels), with the emitters' own pixels left out (every pixel where one of 1024 samples of a
+max_depth=1 render sees an emitter). Targets: denoised at 16 spp below undenoised at 128 spp on the Cornell box and
+on the median scene of the set (the ratio of the two errors, median over the set, the upper one for an even count);
+the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU time, as the machine is shared).
+--picture writes the side-by-side image of the README.
+
+    PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--picture PNG]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+import durer
+from durer.errors import SceneError
+from durer.rendering.denoise import PIXEL_FILTER, QUALITY, clean_features, denoise
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "out"
+# ../shared beside the repository (a worktree in wt/ has it one folder further up)
+SHARED = next((p / "shared" / "scenes" / "mitsuba" for p in (ROOT.parent, ROOT.parent.parent)
+               if (p / "shared" / "scenes" / "mitsuba").is_dir()), ROOT.parent / "shared" / "scenes" / "mitsuba")
+CORNELL = ROOT / "examples" / "cornell_box.xml"
+DENOISED_SPP = (4, 16, 64)
+NOISY_SPP = (16, 32, 64, 128, 256, 512, 1024)
+
+
+def scene_set() -> tuple[list[Path], list[str]]:
+    """The set's scene files durer loads, and a line for each it does not."""
+    found, skipped = [], []
+    for path in sorted(SHARED.glob("**/*.xml")) + [ROOT / "examples" / "caustic.xml"]:
+        if {"fragments", "include"} & set(path.parts):
+            continue
+        try:
+            durer.load(path)
+            found.append(path)
+        except (SceneError, ValueError, OSError) as e:
+            skipped.append(f"{path.relative_to(SHARED) if SHARED in path.parents else path.name}: "
+                           f"{str(e).splitlines()[0][-90:]}")
+    return found, skipped
+
+
+def size(scene: durer.Scene, res: int) -> tuple[int, int]:
+    """The scene's film aspect with the longer side res pixels."""
+    d = scene.render_defaults
+    w, h = d.get("width", res), d.get("height", res)
+    s = res / max(w, h)
+    return max(1, round(w * s)), max(1, round(h * s))
+
+
+def reference(path: Path, scene: durer.Scene, res: int, spp: int) -> np.ndarray:
+    cache = OUT / f"denoise_ref_{path.stem}_{res}_{spp}.npy"
+    if cache.exists():
+        return np.load(cache)
+    start = time.perf_counter()
+    img = np.zeros(size(scene, res)[::-1] + (3,))
+    chunk = min(spp, 1024)
+    for k in range(spp // chunk):  # chunks of independent seeds: the same estimator, bounded memory
+        img += durer.render(scene, *size(scene, res), samples=chunk, seed=1000 + k).color / (spp // chunk)
+    print(f"# reference {path.stem}: {spp} spp at {res} px, {time.perf_counter() - start:.0f} s")
+    OUT.mkdir(parents=True, exist_ok=True)
+    np.save(cache, img)
+    return img
+
+
+def emitter_pixels(path: Path, scene: durer.Scene, res: int) -> np.ndarray:
+    """Pixels where some of 1024 samples sees an emitter directly (max_depth 1 shows emitters only): the emitters'
+    own pixels, their partly covered edge pixels included (cached beside the reference)."""
+    cache = OUT / f"denoise_emitters_{path.stem}_{res}.npy"
+    if cache.exists():
+        return np.load(cache)
+    seen = durer.render(scene, *size(scene, res), samples=1024, max_depth=1, seed=5).color.max(axis=2) > 0
+    OUT.mkdir(parents=True, exist_ok=True)
+    np.save(cache, seen)
+    return seen
+
+
+def rmse(a: np.ndarray, b: np.ndarray, keep: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((a[keep] - b[keep]) ** 2)))
+
+
+def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualities, seeds: int) -> dict:
+    """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {spp: e}} (the same
+    render with features and denoise=True's box filter, denoised at each OIDN quality), each the mean over `seeds`
+    seeds (one above 128 spp: one run's error at low spp is set by a few firefly pixels), and OIDN's mean seconds."""
+    scene = durer.load(path)
+    ref = reference(path, scene, res, ref_spp)
+    keep = ~emitter_pixels(path, scene, res)
+    wh = size(scene, res)
+    noisy = {n: float(np.mean([rmse(durer.render(scene, *wh, samples=n, seed=k).color, ref, keep)
+                               for k in range(1, 1 + (seeds if n <= 128 else 1))])) for n in noisy_spp}
+    clean = clean_features(scene.materials, path=True)
+    denoised, seconds = {q: {n: [] for n in denoised_spp} for q in qualities}, {q: [] for q in qualities}
+    for n in denoised_spp:
+        for k in range(1, 1 + seeds):
+            r = durer.render(scene, *wh, samples=n, seed=k, aovs=True, **PIXEL_FILTER)  # as denoise=True renders
+            for q in qualities:
+                d = denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
+                denoised[q][n].append(rmse(d.color, ref, keep))
+                seconds[q].append(d.seconds)
+    return dict(noisy=noisy, denoised={q: {n: float(np.mean(v)) for n, v in e.items()} for q, e in denoised.items()},
+                seconds={q: float(np.mean(v)) for q, v in seconds.items()}, clean=clean)
+
+
+def timing(qualities, res: int = 512, spp: int = 16) -> dict:
+    """A 16-spp render of the Cornell box at 512 x 512 without features, with them, and OIDN on it at each quality:
+    (wall, CPU) seconds, the CPU time of every thread of the process (the share that stays put on a shared machine),
+    best of two each after a warm-up."""
+    scene = durer.load(CORNELL)
+    r = durer.render(scene, 32, 32, samples=2, aovs=True)  # compile
+    for q in qualities:
+        denoise(r.color, r.albedo, r.shading_normals, quality=q)  # load OIDN's weights
+
+    def timed(f):
+        start, cpu = time.perf_counter(), time.process_time()
+        out = f()
+        return out, (time.perf_counter() - start, time.process_time() - cpu)
+
+    plain, featured, oidn = [], [], {q: [] for q in qualities}
+    for _ in range(2):
+        plain.append(timed(lambda: durer.render(scene, res, res, samples=spp))[1])
+        r, t = timed(lambda: durer.render(scene, res, res, samples=spp, aovs=True))
+        featured.append(t)
+        for q in qualities:
+            oidn[q].append(timed(lambda q=q, r=r: denoise(r.color, r.albedo, r.shading_normals, quality=q))[1])
+
+    def best(ts):
+        return min(t[0] for t in ts), min(t[1] for t in ts)
+
+    return dict(plain=best(plain), featured=best(featured), oidn={q: best(v) for q, v in oidn.items()})
+
+
+def picture(path: Path, res: int = 160, spp: int = 16) -> None:
+    """Noisy | denoised at spp | reference (1024 spp), Cornell box, sRGB PNG."""
+    from PIL import Image
+
+    scene = durer.load(CORNELL)
+    noisy = durer.render(scene, res, res, samples=spp)
+    denoised = durer.render(scene, res, res, samples=spp, denoise=True)
+    ref = durer.render(scene, res, res, samples=1024, seed=9)
+    gap = np.full((res, 4, 3), 255, np.uint8)
+    strip = np.concatenate([noisy.to_srgb8(), gap, denoised.to_srgb8(), gap, ref.to_srgb8()], axis=1)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(strip).save(path, optimize=True)
+    print(f"# wrote {path}: {spp} spp | {spp} spp denoised | 1024 spp")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--res", type=int, default=128, help="longer image side of the error renders (default 128)")
+    ap.add_argument("--ref-spp", type=int, default=4096, help="samples of the reference (default 4096)")
+    ap.add_argument("--seeds", type=int, default=3, help="renders (seeds) averaged per error up to 128 spp (default 3)")
+    ap.add_argument("--quick", action="store_true", help="64 px, 1024-spp reference, noisy up to 256 spp")
+    ap.add_argument("--quality", nargs="+", default=[QUALITY], choices=("fast", "balanced", "high"),
+                    help=f"OIDN qualities to measure (default: durer's, {QUALITY})")
+    ap.add_argument("--picture", type=Path, help="also write the README's side-by-side PNG here")
+    ap.add_argument("--no-timing", action="store_true", help="skip the 512 x 512 timing")
+    ap.add_argument("--timing-only", action="store_true", help="only the 512 x 512 timing (and --picture)")
+    a = ap.parse_args()
+    res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, NOISY_SPP, a.quality
+    if a.quick:
+        res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in NOISY_SPP if n <= 256)
+    if a.timing_only:
+        found, skipped = [], []
+    else:
+        found, skipped = scene_set()
+    if not a.timing_only:
+        print(f"# {res} px on the longer side; reference {ref_spp} spp (durer, other seeds); RMSE without the "
+              f"emitters' own pixels, mean over {a.seeds} seeds up to 128 spp")
+        for line in skipped:
+            print(f"# not loaded: {line}")
+        head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in DENOISED_SPP])
+        ratio_head = " | ".join(f"{q} 16 / noisy 128" for q in qualities)
+        print(f"\n| scene | {head} | {ratio_head} | OIDN s ({', '.join(qualities)}) |")
+        print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
+    ratios = {q: {} for q in qualities}
+    for path in [] if a.timing_only else [CORNELL] + found:
+        e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities, a.seeds)
+        for q in qualities:
+            ratios[q][path] = e["denoised"][q][16] / e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
+        cells = [f"{e['noisy'][n]:.4f}" for n in noisy_spp]
+        cells += [f"{e['denoised'][q][n]:.4f}" for q in qualities for n in DENOISED_SPP]
+        cells += [f"{ratios[q][path]:.2f}" for q in qualities]
+        name = path.relative_to(SHARED) if SHARED in path.parents else path.relative_to(ROOT)
+        clean = "" if e["clean"] else " (features prefiltered)"
+        seconds = " / ".join(f"{e['seconds'][q]:.3f}" for q in qualities)
+        print(f"| {name}{clean} | {' | '.join(cells)} | {seconds} |", flush=True)
+    print()
+    for q in [] if a.timing_only else qualities:
+        in_set = sorted(ratios[q][p] for p in found)
+        median = in_set[len(in_set) // 2] if in_set else float("nan")
+        print(f"Target ({q}): denoised 16 spp below noisy 128 spp: Cornell box {ratios[q][CORNELL]:.2f} "
+              f"({'met' if ratios[q][CORNELL] < 1 else 'NOT met'}), median scene of the set ({len(in_set)} scenes) "
+              f"{median:.2f} ({'met' if median < 1 else 'NOT met'})")
+    if not a.no_timing:
+        t = timing(qualities)
+        (pw, pc), (fw, fc) = t["plain"], t["featured"]
+        print(f"\n16-spp 512x512 Cornell box: render {pw:.2f} s wall / {pc:.2f} s CPU, with features {fw:.2f} / "
+              f"{fc:.2f} s (+{100 * (fc / pc - 1):.1f}% CPU)")
+        for q in qualities:
+            ow, oc = t["oidn"][q]
+            print(f"Target ({q}): denoiser under 10% of the render: OIDN {ow:.2f} s wall = {100 * ow / pw:.1f}%, "
+                  f"{oc:.2f} s CPU = {100 * oc / pc:.1f}% ({'met' if oc / pc < 0.1 else 'NOT met'} by CPU time); "
+                  f"with the features' cost {100 * (fc + oc - pc) / pc:.1f}% CPU")
+    if a.picture:
+        picture(a.picture)
+
+
+if __name__ == "__main__":
+    main()

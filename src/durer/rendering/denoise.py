@@ -1,0 +1,112 @@
+"""Denoising with Intel Open Image Denoise (OIDN, through the optional `pyoidn` package: `pip install
+durer[denoise]`).
+
+OIDN's `RT` filter takes the noisy linear colour (HDR) and two feature images the renderer produces noise-free or
+nearly so: the albedo and the shading normal of each pixel's first non-specular hit (kernels/path/bounce.py,
+rendering/whitted.py), filtered like the colour. When the features carry noise of their own (a glass's stochastic
+Fresnel choice, a solid texture picked per sample), OIDN's recommended "prefiltering" is applied: each feature is
+denoised by its own RT filter first, and the colour filter is then told they are clean (`cleanAux`).
+
+A denoised render's samples are filtered by a one-pixel box (PIXEL_FILTER), whatever the scene asks for: a wider
+reconstruction filter spreads each sample over several pixels, and OIDN takes the correlated noise for detail (the
+roulette scene of ../shared, filtered by its tent: 0.0039-0.0050 RMSE at 16 spp, by the box: 0.0030-0.0035;
+benchmarks/README.md).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import MissingDependency
+from ..scene.bsdfs import Dielectric, Surface, TwoSided
+from ..scene.materials import PhongMaterial
+from ..scene.textures import Texture
+
+INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]"'
+QUALITY = "high"  # OIDN's own default preset; RenderOptions.denoise_quality picks another (benchmarks/README.md)
+_QUALITY_CODES = {"high": 6, "balanced": 5, "fast": 4}  # OIDN_QUALITY_HIGH, _BALANCED, _FAST
+PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of a denoised render (module docstring)
+
+
+def require_oidn():
+    """The pyoidn module, or MissingDependency, one line saying what to install (called before rendering)."""
+    try:
+        import pyoidn
+    except ImportError:
+        raise MissingDependency(INSTALL) from None
+    return pyoidn
+
+
+@dataclass
+class Denoised:
+    """The denoised colour (H, W, 3) float32 and the seconds OIDN took (prefiltering included)."""
+
+    color: np.ndarray
+    seconds: float
+
+
+def clean_features(materials: list, path: bool) -> bool:
+    """Are the features noise-free apart from antialiasing, so OIDN may take them as they are (cleanAux)? The ray
+    caster's and the Whitted tracer's are (they follow every mirror and refraction ray); the path tracer's are not
+    when a path's first non-specular hit is chosen at random: behind a smooth dielectric (reflect or refract, by
+    Fresnel) or a course material with both a mirror and a transparent lobe and no smooth one, or on a solid
+    texture (one of its blended materials picked per sample)."""
+    if not path:
+        return True
+    for m in materials:
+        if isinstance(m, Texture.__args__):
+            return False
+        if isinstance(m, Surface):
+            m = m.bsdf
+        if isinstance(m, TwoSided):
+            m = m.bsdf
+        if isinstance(m, Dielectric):
+            return False
+        if isinstance(m, PhongMaterial):
+            smooth = max(m.diffuse_color) > 0 or max(m.specular_color) > 0
+            if not smooth and max(m.reflective_color) > 0 and max(m.transparent_color) > 0:
+                return False
+    return True
+
+
+def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean: bool = True,
+            quality: str = QUALITY) -> Denoised:
+    """OIDN's RT filter on linear HDR colour (H, W, 3) with albedo and normal features (H, W, 3). `clean` says the
+    features are noise-free (else each is prefiltered first). Raises MissingDependency without pyoidn."""
+    oidn = require_oidn()
+    start = time.perf_counter()
+    color = _image(np.maximum(np.nan_to_num(color, posinf=0.0), 0.0))  # OIDN's HDR input: finite, non-negative
+    albedo = _image(np.clip(albedo, 0.0, 1.0))
+    normal = _image(np.clip(normal, -1.0, 1.0))
+    if not clean:
+        albedo, normal = _prefilter(oidn, albedo, normal, quality)
+    out = oidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality)
+    return Denoised(np.asarray(out, dtype=np.float32), time.perf_counter() - start)
+
+
+def _image(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def _prefilter(oidn, albedo: np.ndarray, normal: np.ndarray, quality: str) -> tuple[np.ndarray, np.ndarray]:
+    """Each feature denoised by an RT filter of its own (OIDN's documented prefiltering of noisy auxiliary
+    images): the image goes in as the filter's `albedo` or `normal` input and comes back as its output."""
+    out = []
+    with oidn.Device() as device:
+        device.commit()
+        for name, image in (("albedo", albedo), ("normal", normal)):
+            result = np.empty_like(image)
+            with oidn.Filter(device, oidn.OIDN_FILTER_TYPE_RT) as flt:
+                flt.set_image(name, image, oidn.OIDN_FORMAT_FLOAT3)
+                flt.set_image(oidn.OIDN_IMAGE_OUTPUT, result, oidn.OIDN_FORMAT_FLOAT3)
+                flt.set_quality(_QUALITY_CODES[quality])
+                flt.commit()
+                flt.execute()
+            error = device.get_error()
+            if error:
+                raise RuntimeError(f"Open Image Denoise could not prefilter the {name}: {error}")
+            out.append(result)
+    return out[0], out[1]
