@@ -36,6 +36,11 @@ def _vec(a) -> list[float]:
     return [float(x) for x in np.asarray(a, dtype=np.float64).reshape(-1)]
 
 
+def _num(x: float) -> float | None:
+    """A float for JSON: None for infinities (a delta light's pdf; JSON has none)."""
+    return float(x) if np.isfinite(x) else None
+
+
 def path_samples(width: int, height: int, x: int, y: int, options) -> tuple[np.ndarray, ...]:
     """The path tracer's samples that weigh on pixel (x, y): film points (K,2), owner pixel indices (K,), sample
     indices (K,) and normalised filter weights (K,), as render_path places and splats them."""
@@ -84,7 +89,7 @@ class _Recorder:
                 if b["unblocked"][i]:
                     after = after + b["shadow_c"][i]
             thr = b["next_thr"][i]
-            node["next"] = {"throughput": _vec(thr), "pdf": float(b["next_prev"][i, 0]),
+            node["next"] = {"throughput": _vec(thr), "pdf": _num(b["next_prev"][i, 0]),
                             "delta": bool(b["next_prev"][i, 1]), "eta": float(b["next_eta"][i])}
             if not thr.max() > 0:
                 node["path_ends"] = self._end_reason(b, i, depth)
@@ -106,7 +111,7 @@ class _Recorder:
             hit = {"point": _vec(b["point"][i]), "normal": _vec(b["normal"][i]), "material": slot,
                    "material_type": _bsdf_name(material), "object": OBJECT_KINDS[int(b["kind"][i])],
                    "primitive": int(b["prim"][i])}
-        return {"kind": kind, "origin": _vec(o), "direction": _vec(d), "t": float(b["t"][i]) if hit else None,
+        return {"kind": kind, "origin": _vec(o), "direction": _vec(d), "t": _num(b["t"][i]) if hit else None,
                 "hit": hit, "depth": depth, "weight": 1.0, "throughput": _vec(b["thr"][i]),
                 "contribution": [0.0] * 3, "children": [], "filter_weight": fw,
                 "end": hit["point"] if hit else _vec(o + self.far * d)}
@@ -147,8 +152,8 @@ class _Recorder:
         length = float(dist[0]) if np.isfinite(dist[0]) else self.far
         return {"kind": "shadow", "origin": _vec(b["shadow_o"][i]), "direction": _vec(b["shadow_d"][i]),
                 "t": None, "hit": None, "blocked": not reaches, "distance": float(dist[0]) if np.isfinite(dist[0])
-                else None, "light_sample": {"emitter_weight": _vec(lw[0]), "pdf": float(lpdf[0]),
-                                            "bsdf": _vec(f[0]), "bsdf_pdf": float(bpdf[0]), "mis_weight": mis},
+                else None, "light_sample": {"emitter_weight": _vec(lw[0]), "pdf": _num(lpdf[0]),
+                                            "bsdf": _vec(f[0]), "bsdf_pdf": _num(bpdf[0]), "mis_weight": mis},
                 "weight": 1.0, "throughput": _vec(b["thr"][i]), "contribution": _vec(fw * c) if reaches else [0.0] * 3,
                 "children": [], "end": _vec(b["shadow_o"][i] + length * b["shadow_d"][i])}
 
