@@ -141,3 +141,15 @@ def test_course_integrators_on_a_mitsuba_scene_say_why_in_one_line(integrator):
         assert "\n" not in message
     finally:
         session.stop()
+
+
+def test_notebook_preview_of_a_mitsuba_file_takes_its_integrator():
+    handle = durer.preview(str(CORNELL), 16, 12, samples=2)
+    try:
+        session = handle.server.session
+        assert (session.options.integrator, session.options.max_depth, session.options.samples) == ("path", 8, 2)
+        inbox = Inbox()
+        session.subscribe(inbox)
+        assert inbox.until(lambda m: m["type"] == "frame" and m["final"])["samples"] == 2
+    finally:
+        handle.stop()
