@@ -211,6 +211,7 @@ def test_mitsuba_scene_refines_progressively_to_durer_render(browser):
         diff = np.abs(shown.reshape(size[1], size[0], 4)[:, :, :3].astype(int) - expected.astype(int))
         assert diff.max() <= 2
         assert pg.inner_text("#status").startswith("done") and "8 spp" in pg.inner_text("#status")
+        assert pg.is_disabled("#bounces") and pg.is_disabled("#shadows")  # Whitted's switches, not the path's
     finally:
         pg.close()
         srv.stop()

@@ -128,8 +128,10 @@ class _Recorder:
             return None
         scale = b["thr"][i] * radiance
         c = int(np.argmax(scale))
+        if not np.any(found != 0):  # the kernel added nothing: the emitter's back side, or hidden (hide_emitters)
+            return {"radiance": _vec(radiance), "mis_weight": 0.0, "counted": False}
         mis = float(found[c] / scale[c]) if scale[c] > 0 else 0.0
-        return {"radiance": _vec(radiance), "mis_weight": mis}
+        return {"radiance": _vec(radiance), "mis_weight": mis, "counted": True}
 
     def _shadow(self, b: dict, i: int, depth: int, fw: float, sample: int, pixel: int) -> dict:
         """The light sample of next-event estimation, replayed with the emitters' and BSDFs' array calls."""

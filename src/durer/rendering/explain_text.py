@@ -32,7 +32,10 @@ def _path_lines(node: dict) -> list[str]:
                  f"throughput {_v(node['throughput'])}{tail}"]
     if node.get("emission"):
         e = node["emission"]
-        lines.append(f"    emission {_v(e['radiance'])} x MIS weight {e['mis_weight']:.4g}")
+        if e.get("counted", True):
+            lines.append(f"    emission {_v(e['radiance'])} x MIS weight {e['mis_weight']:.4g}")
+        else:
+            lines.append(f"    emission {_v(e['radiance'])} not counted (the emitter's back side, or hidden)")
     nxt = node.get("next")
     if "path_ends" in node:
         lines.append(f"    path ends: {node['path_ends']}")
