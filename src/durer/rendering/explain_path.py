@@ -68,7 +68,7 @@ class _Recorder:
     def __call__(self, depth: int, arrays: dict) -> None:
         self.bounces.append(arrays)
 
-    def path(self, j: int, fw: float, sample: int, pixel: int, kind: str = "camera") -> dict:
+    def path(self, j: int, fw: float, sample: int, pixel: int) -> dict:
         """The node chain of path j (row j of the traced batch) with filter weight fw."""
         after = np.zeros(3)  # L of the path after the previous bounce (emission and unblocked light sample)
         root: dict | None = None
@@ -78,7 +78,7 @@ class _Recorder:
             if not len(rows):
                 break
             i = int(rows[0])
-            node = self._vertex(b, i, depth, kind if depth == 0 else "bounce", fw)
+            node = self._vertex(b, i, depth, "camera" if depth == 0 else "bounce", fw)
             found = b["L_shaded"][i] - after
             node["contribution"] = _vec(fw * found)
             node["emission"] = self._emission(b, i, depth, found)
@@ -89,9 +89,10 @@ class _Recorder:
                 if b["unblocked"][i]:
                     after = after + b["shadow_c"][i]
             thr = b["next_thr"][i]
-            node["next"] = {"throughput": _vec(thr), "pdf": _num(b["next_prev"][i, 0]),
-                            "delta": bool(b["next_prev"][i, 1]), "eta": float(b["next_eta"][i])}
-            if not thr.max() > 0:
+            if thr.max() > 0:  # (the kernel writes the next ray's other arrays only for paths that go on)
+                node["next"] = {"throughput": _vec(thr), "pdf": _num(b["next_prev"][i, 0]),
+                                "delta": bool(b["next_prev"][i, 1]), "eta": float(b["next_eta"][i])}
+            else:
                 node["path_ends"] = self._end_reason(b, i, depth)
             if parent is None:
                 root = node
