@@ -118,3 +118,19 @@ def test_leaf_weights_leave_non_texture_materials_whole():
     (leaf, weight), = leaf_weights(scene.materials, mat, np.zeros((len(mat), 3)))
     np.testing.assert_array_equal(leaf, mat)
     np.testing.assert_array_equal(weight, 1.0)
+
+
+@pytest.mark.parametrize("name", ["spheres.txt", "fisheye.txt", "panorama.txt", "still_life.gltf",
+                                  "spotlights.gltf", "cube.obj"])
+def test_every_example_path_traced_adds_up(name, tmp_path, capsys):
+    """Course scenes (textures, background, fisheye pixels without a ray), models and their lights: the path
+    tracer's explain adds up to its render for every kind of file durer.load reads."""
+    flags = ["--size", "12", "10", "--integrator", "path", "--samples", "2", "--max-depth", "4", "--seed", "5"]
+    out = tmp_path / "image.npy"
+    assert main(["render", str(EXAMPLES / name), "-o", str(out), "--quiet", *flags]) == 0
+    image = np.load(out)
+    for x, y in [(5, 5), (0, 0), (11, 9), (3, 7)]:
+        tree = _json(["explain", str(EXAMPLES / name), "--pixel", str(x), str(y), "--json", *flags], capsys)
+        np.testing.assert_allclose(tree["color"], image[y, x], rtol=RTOL, atol=1e-9, err_msg=f"{name} {x} {y}")
+        assert main(["explain", str(EXAMPLES / name), "--pixel", str(x), str(y), *flags]) == 0
+        assert capsys.readouterr().out.startswith(f"pixel ({x}, {y}) of 12x10")

@@ -162,6 +162,7 @@ def test_click_shows_the_ray_tree_of_durer_explain(page, references):
 
 def test_malformed_scene_shows_file_and_line(browser, tmp_path):
     scene = tmp_path / "broken.txt"
+    (tmp_path / "cube.obj").write_bytes((EXAMPLE.parent / "cube.obj").read_bytes())  # the scene's mesh, beside it
     text = EXAMPLE.read_text()
     scene.write_text(text.replace("angle 35", "angle thirty-five"))
     line = 1 + next(i for i, x in enumerate(text.splitlines()) if "angle 35" in x)
@@ -175,6 +176,67 @@ def test_malformed_scene_shows_file_and_line(browser, tmp_path):
         scene.write_text(text)  # fixed: the page clears the message and shows the image
         pg.wait_for_selector("#error", state="hidden", timeout=WAIT_MS)
         _wait_final(pg)
+    finally:
+        pg.close()
+        srv.stop()
+
+
+CORNELL = EXAMPLE.parent / "cornell_box.xml"
+PATH = dict(integrator="path", samples=8, max_depth=8)
+
+
+def test_mitsuba_scene_refines_progressively_to_durer_render(browser):
+    """The Cornell box path-traced: after a change the page shows 1, 2, 4, then 8 samples per pixel at full size,
+    ending in `durer render`'s image."""
+    size = (32, 24)
+    expected = encode_srgb(durer.render(durer.load(CORNELL), *size, **PATH).color)
+    srv = _serve(CORNELL, *size, PATH)
+    pg = browser.new_page()
+    try:
+        pg.set_default_timeout(WAIT_MS)
+        pg.goto(srv.url)
+        _wait_final(pg)
+        pg.evaluate("""() => { window.seen = []; const i = document.getElementById('image');
+            new MutationObserver(() => { if (i.dataset.level !== undefined)
+                window.seen.push([+i.dataset.level, +i.dataset.samples, i.dataset.final]); })
+              .observe(i, {attributes: true, attributeFilter: ['data-final']}); }""")
+        pg.click("#reset")  # a new generation: the levels start again
+        pg.wait_for_function("window.seen.some(s => s[2] === '1')", timeout=WAIT_MS)
+        seen = pg.evaluate("window.seen")  # [level, spp, final] of each frame drawn (a frame may be skipped
+        samples = [s for _, s, _ in seen]   # when a newer one arrives while it decodes)
+        assert samples == sorted(samples) and seen[-1][1:] == [8, "1"]
+        assert any(1 < s < 8 for s in samples), f"no intermediate refinement drawn: {seen}"
+        shown = np.array(pg.evaluate("""() => { const c = document.getElementById('image');
+            return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data); }"""), np.uint8)
+        diff = np.abs(shown.reshape(size[1], size[0], 4)[:, :, :3].astype(int) - expected.astype(int))
+        assert diff.max() <= 2
+        assert pg.inner_text("#status").startswith("done") and "8 spp" in pg.inner_text("#status")
+        assert pg.is_disabled("#bounces") and pg.is_disabled("#shadows")  # Whitted's switches, not the path's
+    finally:
+        pg.close()
+        srv.stop()
+
+
+def test_a_failing_render_shows_its_one_line_instead_of_connecting(browser, monkeypatch):
+    """The render thread fails before the page connects: the page still shows why, in the error box."""
+    from durer.preview import session as session_module
+
+    def broken(ctx, width, height):
+        raise RuntimeError("the kernel fell over\nmore detail")
+
+    monkeypatch.setattr(session_module, "render_view", broken)
+    srv = _serve(EXAMPLE, 16, 12, {})
+    pg = browser.new_page()
+    try:
+        deadline = WAIT_MS / 1000
+        while srv.session.failure is None and deadline > 0:
+            pg.wait_for_timeout(50)
+            deadline -= 0.05
+        pg.set_default_timeout(WAIT_MS)
+        pg.goto(srv.url)
+        pg.wait_for_selector("#error", state="visible", timeout=WAIT_MS)
+        assert pg.inner_text("#error") == "render failed: RuntimeError: the kernel fell over"
+        assert not pg.inner_text("#status").startswith("connecting")
     finally:
         pg.close()
         srv.stop()

@@ -179,6 +179,7 @@ def test_bad_requests_get_a_notice_and_the_server_goes_on(server, client, reques
 
 def test_malformed_scene_is_reported_and_fixing_it_reloads(tmp_path):
     scene = tmp_path / "scene.txt"
+    (tmp_path / "cube.obj").write_bytes((EXAMPLE.parent / "cube.obj").read_bytes())  # the scene's mesh, beside it
     good = EXAMPLE.read_text()
     scene.write_text(good.replace("angle 35", "angle thirty-five"))
     line = 1 + good.splitlines().index(next(x for x in good.splitlines() if "angle 35" in x))

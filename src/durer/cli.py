@@ -427,34 +427,16 @@ def run_preview(argv: list[str]) -> int:
         return preview_command(a, render_options, scene_size)
 
 
-def warmup_parser() -> argparse.ArgumentParser:
-    from .warmup import GROUPS
+def _warmup(name: str):
+    """`durer warmup`'s parser or command (warmup.py, imported on use)."""
+    from . import warmup
 
-    p = argparse.ArgumentParser(prog="durer warmup", description="Compile every kernel now (Numba caches them on "
-                                "disk), so that first renders and queries take seconds. `pip install .` already "
-                                "does this; use it after an editable install or when building an image.")
-    p.add_argument("groups", nargs="*", metavar="GROUP",
-                   help=f"what to compile: {', '.join(GROUPS)} (default: all)")
-    p.add_argument("--processes", type=int, default=None, help="compile in N processes at once (default: the CPUs)")
-    p.add_argument("--quiet", action="store_true", help="print nothing")
-    return p
-
-
-def run_warmup(argv: list[str]) -> int:
-    from .warmup import warm_up
-
-    args = warmup_parser().parse_args(argv)
-    if args.processes is not None and args.processes < 1:
-        raise UsageError(f"--processes must be at least 1, got {args.processes}")
-    seconds = warm_up(args.groups or None, processes=args.processes, quiet=args.quiet)
-    if not args.quiet:
-        print(f"durer: kernels compiled and cached in {seconds:.0f} s", file=sys.stderr)
-    return 0
+    return getattr(warmup, name)
 
 
 COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser),
             "explain": (run_explain, explain_parser), "preview": (run_preview, preview_parser),
-            "warmup": (run_warmup, warmup_parser)}
+            "warmup": (lambda argv: _warmup("command")(argv), lambda: _warmup("parser")())}
 USAGE = ("usage: durer {raycast,render,explain,preview,warmup} ...\n"
          "  durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's flags\n"
          "  durer render SCENE -o OUT.png [--size W H] [...]          the modern command\n"

@@ -15,6 +15,7 @@ two-level trees, float32 leaves, each integrator and accelerator).
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -209,6 +210,30 @@ def warm_up(groups: list[str] | None = None, processes: int | None = None, quiet
                 other.kill()
             raise RuntimeError(f"durer warmup: the {name} group failed:\n{out}")
     return time.perf_counter() - start
+
+
+def parser() -> argparse.ArgumentParser:
+    """The arguments of `durer warmup`."""
+    p = argparse.ArgumentParser(prog="durer warmup", description="Compile every kernel now (Numba caches them on "
+                                "disk), so that first renders and queries take seconds. `pip install .` already "
+                                "does this; use it after an editable install or when building an image.")
+    p.add_argument("groups", nargs="*", metavar="GROUP", help=f"what to compile: {', '.join(GROUPS)} (default: all)")
+    p.add_argument("--processes", type=int, default=None, help="compile in N processes at once (default: the CPUs)")
+    p.add_argument("--quiet", action="store_true", help="print nothing")
+    return p
+
+
+def command(argv: list[str]) -> int:
+    """`durer warmup`: UsageError on a bad count, ValueError naming an unknown group (the CLI's one line)."""
+    from .errors import UsageError
+
+    args = parser().parse_args(argv)
+    if args.processes is not None and args.processes < 1:
+        raise UsageError(f"--processes must be at least 1, got {args.processes}")
+    seconds = warm_up(args.groups or None, processes=args.processes, quiet=args.quiet)
+    if not args.quiet:
+        print(f"durer: kernels compiled and cached in {seconds:.0f} s", file=sys.stderr)
+    return 0
 
 
 if __name__ == "__main__":

@@ -46,11 +46,20 @@ class PreviewHandle:
 def show(scene: Scene | str | os.PathLike, width: int = 480, height: int = 360, *, host: str = "127.0.0.1",
          port: int = 0, mesh_path: list[str] | None = None, **options) -> PreviewHandle:
     """Serve a live view of `scene` (a Scene, or a scene file reloaded when it changes) in a background thread;
-    keyword arguments are render options (shadows, bounces, samples, ...). Returns a PreviewHandle."""
+    keyword arguments are render options (shadows, bounces, samples, ...) over the scene's own defaults (a Mitsuba
+    scene's integrator and samples), as render() takes them. Returns a PreviewHandle."""
+    from ..errors import DurerError
+    from ..io.loaders import load_scene
     from ..rendering.renderer import make_options
     from .server import PreviewServer
     from .session import PreviewSession
 
+    try:
+        loaded = scene if isinstance(scene, Scene) else load_scene(scene, mesh_path)
+        defaults = dict(loaded.render_defaults or {})
+    except (DurerError, ValueError, OSError):  # a malformed file: the page shows its FILE:LINE until it is fixed
+        defaults = {}
+    options = {**{k: v for k, v in defaults.items() if k not in ("width", "height")}, **options}
     session = PreviewSession(scene, width, height, make_options(**options), mesh_path=mesh_path)
     server = PreviewServer(session, host, port).start()
     _RUNNING.append(server)

@@ -149,7 +149,8 @@ class PreviewSession:
         """What the page's controls show: size, mode, options, the camera."""
         o = self.options
         return {"type": "state", "width": self.width, "height": self.height, "mode": self.mode,
-                "samples": o.samples, "bounces": o.bounces, "shadows": o.shadows, "shade_back": o.shade_back,
+                "samples": o.samples, "integrator": o.integrator, "bounces": o.bounces, "shadows": o.shadows,
+                "shade_back": o.shade_back,
                 "scene": str(self.path) if self.path else "(scene object)", "generation": self._generation,
                 "camera": self.view.describe() if self.view else None}
 

@@ -36,6 +36,11 @@ def _vec(a) -> list[float]:
     return [float(x) for x in np.asarray(a, dtype=np.float64).reshape(-1)]
 
 
+def _num(x: float) -> float | None:
+    """A float for JSON: None for infinities (a delta light's pdf; JSON has none)."""
+    return float(x) if np.isfinite(x) else None
+
+
 def path_samples(width: int, height: int, x: int, y: int, options) -> tuple[np.ndarray, ...]:
     """The path tracer's samples that weigh on pixel (x, y): film points (K,2), owner pixel indices (K,), sample
     indices (K,) and normalised filter weights (K,), as the render's units place and splat them."""
@@ -63,7 +68,7 @@ class _Recorder:
     def __call__(self, depth: int, arrays: dict) -> None:
         self.bounces.append(arrays)
 
-    def path(self, j: int, fw: float, sample: int, pixel: int, kind: str = "camera") -> dict:
+    def path(self, j: int, fw: float, sample: int, pixel: int) -> dict:
         """The node chain of path j (row j of the traced batch) with filter weight fw."""
         after = np.zeros(3)  # L of the path after the previous bounce (emission and unblocked light sample)
         root: dict | None = None
@@ -73,7 +78,7 @@ class _Recorder:
             if not len(rows):
                 break
             i = int(rows[0])
-            node = self._vertex(b, i, depth, kind if depth == 0 else "bounce", fw)
+            node = self._vertex(b, i, depth, "camera" if depth == 0 else "bounce", fw)
             found = b["L_shaded"][i] - after
             node["contribution"] = _vec(fw * found)
             node["emission"] = self._emission(b, i, depth, found)
@@ -84,9 +89,10 @@ class _Recorder:
                 if b["unblocked"][i]:
                     after = after + b["shadow_c"][i]
             thr = b["next_thr"][i]
-            node["next"] = {"throughput": _vec(thr), "pdf": float(b["next_prev"][i, 0]),
-                            "delta": bool(b["next_prev"][i, 1]), "eta": float(b["next_eta"][i])}
-            if not thr.max() > 0:
+            if thr.max() > 0:  # (the kernel writes the next ray's other arrays only for paths that go on)
+                node["next"] = {"throughput": _vec(thr), "pdf": _num(b["next_prev"][i, 0]),
+                                "delta": bool(b["next_prev"][i, 1]), "eta": float(b["next_eta"][i])}
+            else:
                 node["path_ends"] = self._end_reason(b, i, depth)
             if parent is None:
                 root = node
@@ -106,7 +112,7 @@ class _Recorder:
             hit = {"point": _vec(b["point"][i]), "normal": _vec(b["normal"][i]), "material": slot,
                    "material_type": _bsdf_name(material), "object": OBJECT_KINDS[int(b["kind"][i])],
                    "primitive": int(b["prim"][i])}
-        return {"kind": kind, "origin": _vec(o), "direction": _vec(d), "t": float(b["t"][i]) if hit else None,
+        return {"kind": kind, "origin": _vec(o), "direction": _vec(d), "t": _num(b["t"][i]) if hit else None,
                 "hit": hit, "depth": depth, "weight": 1.0, "throughput": _vec(b["thr"][i]),
                 "contribution": [0.0] * 3, "children": [], "filter_weight": fw,
                 "end": hit["point"] if hit else _vec(o + self.far * d)}
@@ -123,8 +129,10 @@ class _Recorder:
             return None
         scale = b["thr"][i] * radiance
         c = int(np.argmax(scale))
+        if not np.any(found != 0):  # the kernel added nothing: the emitter's back side, or hidden (hide_emitters)
+            return {"radiance": _vec(radiance), "mis_weight": 0.0, "counted": False}
         mis = float(found[c] / scale[c]) if scale[c] > 0 else 0.0
-        return {"radiance": _vec(radiance), "mis_weight": mis}
+        return {"radiance": _vec(radiance), "mis_weight": mis, "counted": True}
 
     def _shadow(self, b: dict, i: int, depth: int, fw: float, sample: int, pixel: int) -> dict:
         """The light sample of next-event estimation, replayed with the emitters' and BSDFs' array calls."""
@@ -147,8 +155,8 @@ class _Recorder:
         length = float(dist[0]) if np.isfinite(dist[0]) else self.far
         return {"kind": "shadow", "origin": _vec(b["shadow_o"][i]), "direction": _vec(b["shadow_d"][i]),
                 "t": None, "hit": None, "blocked": not reaches, "distance": float(dist[0]) if np.isfinite(dist[0])
-                else None, "light_sample": {"emitter_weight": _vec(lw[0]), "pdf": float(lpdf[0]),
-                                            "bsdf": _vec(f[0]), "bsdf_pdf": float(bpdf[0]), "mis_weight": mis},
+                else None, "light_sample": {"emitter_weight": _vec(lw[0]), "pdf": _num(lpdf[0]),
+                                            "bsdf": _vec(f[0]), "bsdf_pdf": _num(bpdf[0]), "mis_weight": mis},
                 "weight": 1.0, "throughput": _vec(b["thr"][i]), "contribution": _vec(fw * c) if reaches else [0.0] * 3,
                 "children": [], "end": _vec(b["shadow_o"][i] + length * b["shadow_d"][i])}
 
@@ -190,9 +198,10 @@ def explain_path_pixel(ctx: RenderContext, width: int, height: int, x: int, y: i
         fw = float(weights[k])
         if k in row:
             node = recorder.path(row[k], fw, int(sidx[k]), int(pix[k]))
-        else:  # outside a fisheye's image circle: no ray, black
+        else:  # outside a fisheye's image circle: no ray; the film shows the background there, as render does
+            background = fw * np.asarray(ctx.scene.background_color, dtype=np.float64)
             node = {"kind": "camera", "origin": _vec(origins[k]), "direction": _vec(directions[k]), "t": None,
-                    "hit": None, "weight": 1.0, "throughput": [1.0] * 3, "contribution": [0.0] * 3,
+                    "hit": None, "weight": 1.0, "throughput": [1.0] * 3, "contribution": _vec(background),
                     "children": [], "end": _vec(origins[k]), "no_ray": True}
         node["sample"] = {"film": _vec(pts[k]), "pixel": [int(pix[k] % width), int(pix[k] // width)],
                           "index": int(sidx[k]), "filter_weight": fw}

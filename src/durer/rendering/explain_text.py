@@ -7,6 +7,10 @@ def _v(a, digits: int = 4) -> str:
     return "(" + ", ".join(f"{x + 0.0:.{digits}g}" for x in a) + ")"  # + 0.0: no "-0"
 
 
+def _g(x: float | None) -> str:
+    return "inf" if x is None else f"{x:.4g}"
+
+
 def _path_lines(node: dict) -> list[str]:
     """A path tracer's node (explain_path.py): its ray and vertex, then the emission found, the light sample
     (for a shadow node) or the BSDF sample that continues the path."""
@@ -16,9 +20,10 @@ def _path_lines(node: dict) -> list[str]:
     if kind == "shadow":
         s = node["light_sample"]
         state = "BLOCKED" if node["blocked"] else "reaches it"
+        light_pdf = "delta light" if s["pdf"] is None else f"pdf {s['pdf']:.4g}"
         return [f"{head} -> light sample: {state}{tail}",
-                f"    emitter weight {_v(s['emitter_weight'])} pdf {s['pdf']:.4g}, BSDF {_v(s['bsdf'])} "
-                f"pdf {s['bsdf_pdf']:.4g}, MIS weight {s['mis_weight']:.4g}"]
+                f"    emitter weight {_v(s['emitter_weight'])} {light_pdf}, BSDF {_v(s['bsdf'])} "
+                f"pdf {_g(s['bsdf_pdf'])}, MIS weight {s['mis_weight']:.4g}"]
     if hit is None:
         lines = [f"{head} miss  throughput {_v(node['throughput'])}{tail}"]
     else:
@@ -27,12 +32,15 @@ def _path_lines(node: dict) -> list[str]:
                  f"throughput {_v(node['throughput'])}{tail}"]
     if node.get("emission"):
         e = node["emission"]
-        lines.append(f"    emission {_v(e['radiance'])} x MIS weight {e['mis_weight']:.4g}")
+        if e.get("counted", True):
+            lines.append(f"    emission {_v(e['radiance'])} x MIS weight {e['mis_weight']:.4g}")
+        else:
+            lines.append(f"    emission {_v(e['radiance'])} not counted (the emitter's back side, or hidden)")
     nxt = node.get("next")
     if "path_ends" in node:
         lines.append(f"    path ends: {node['path_ends']}")
     elif nxt is not None:
-        lobe = "delta lobe" if nxt["delta"] else f"pdf {nxt['pdf']:.4g}"
+        lobe = "delta lobe" if nxt["delta"] else f"pdf {_g(nxt['pdf'])}"
         lines.append(f"    BSDF sample ({lobe}): throughput becomes {_v(nxt['throughput'])}")
     return lines
 

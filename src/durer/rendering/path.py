@@ -199,22 +199,26 @@ class PathTracer:
                        tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth,
                                                      self.features), L, aux,
                        (shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok), (nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta))
-            shaded = L.copy() if record is not None else None
-            if last:
-                if record is not None:
-                    record(depth, _bounce_arrays(locals(), m, np.zeros(m, bool)))
-                break
-            q = np.flatnonzero(shadow_ok[:m])
-            unblocked = np.zeros(m, bool)
+            shaded = L[idx] if record is not None else None  # (a copy) the light found before the shadow rays
+            q = np.flatnonzero(shadow_ok[:m])  # none on the last bounce (shade_path casts none there)
+            blocked = np.zeros(0, bool)
             if len(q):
                 k = len(q)
                 for src, dst in ((shadow_o, sh_o), (shadow_d, sh_d), (shadow_t, sh_t)):
                     np.take(src, q, axis=0, out=dst[:k], mode="clip")
                 blocked = ctx.accel.any_hit(sh_o[:k], sh_d[:k], t_min=0.0, t_max=sh_t[:k], width=-1)
                 add_unblocked(L, idx, q, blocked, shadow_c)
-                unblocked[q] = ~blocked
             if record is not None:
-                record(depth, _bounce_arrays(locals(), m, unblocked))
+                unblocked = np.zeros(m, bool)
+                unblocked[q] = ~blocked
+                arrays = dict(idx=idx, o=o, d=d, thr=thr, eta=eta, prev=prev, t=hits.t, kind=hits.kind,
+                              prim=hits.prim, point=p, normal=ng, slot_em=slot_em, slot=slot, shadow_ok=shadow_ok,
+                              shadow_o=shadow_o, shadow_d=shadow_d, shadow_t=shadow_t, shadow_c=shadow_c,
+                              next_o=nxt_o, next_d=nxt_d, next_prev=nxt_prev, next_thr=nxt_thr, next_eta=nxt_eta)
+                record(depth, {"L_shaded": shaded, "unblocked": unblocked,
+                               **{name: np.array(a[:m], copy=True) for name, a in arrays.items()}})
+            if last:
+                break
             alive = np.flatnonzero(max3(nxt_thr[:m]) > 0)
             m = len(alive)
             idx = idx[alive]
@@ -271,19 +275,6 @@ class PathTracer:
 def prepare_path(ctx: RenderContext) -> None:
     """Build the path tracer's tables (BSDFs, emitters, surfaces, the tree to walk) once for a render."""
     ctx.prepared.setdefault("path", PathTracer(ctx))
-
-
-def _bounce_arrays(v: dict, m: int, unblocked: np.ndarray) -> dict:
-    """Copies of one unfused bounce's arrays for _trace_unfused's record hook (v: its locals; m live paths)."""
-    hits = v["hits"]
-    out = {"idx": v["idx"], "o": v["o"][:m], "d": v["d"][:m], "thr": v["thr"][:m], "eta": v["eta"][:m],
-           "prev": v["prev"][:m], "t": hits.t, "kind": hits.kind, "prim": hits.prim, "point": v["p"][:m],
-           "normal": v["ng"][:m], "slot_em": v["slot_em"][:m], "slot": v["slot"][:m],
-           "L_shaded": v["shaded"][v["idx"]], "shadow_ok": v["shadow_ok"][:m], "shadow_o": v["shadow_o"][:m],
-           "shadow_d": v["shadow_d"][:m], "shadow_t": v["shadow_t"][:m], "shadow_c": v["shadow_c"][:m],
-           "unblocked": unblocked, "next_o": v["nxt_o"][:m], "next_d": v["nxt_d"][:m],
-           "next_prev": v["nxt_prev"][:m], "next_thr": v["nxt_thr"][:m], "next_eta": v["nxt_eta"][:m]}
-    return {k: np.array(a, copy=True) for k, a in out.items()}
 
 
 def path_trace(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float,

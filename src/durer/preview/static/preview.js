@@ -41,6 +41,10 @@ function showState(m) {
   }
   for (const key of ["samples", "bounces"]) if (document.activeElement !== $(key)) $(key).value = m[key];
   $("shadows").checked = m.shadows;
+  for (const key of ["bounces", "shadows"]) {  // the course's Whitted switches: the path tracer has max_depth instead
+    $(key).disabled = m.integrator === "path";
+    $(key).title = m.integrator === "path" ? "the path tracer follows the scene's max_depth" : "";
+  }
   $("mode").value = m.mode;
 }
 
