@@ -291,3 +291,19 @@ def test_model_vertices_out_of_float_range_are_a_scene_error(tmp_path, capsys, v
         __import__("warnings").simplefilter("error", RuntimeWarning)
         line = one_line_error(*run(capsys, "render", path, "-o", tmp_path / "o.png", "--size", 4, 4))
     assert line.startswith(f"{path}: {message}")
+
+
+def test_the_missing_mesh_hint_names_a_flag_every_command_takes(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("DURER_MESH_PATH", raising=False)
+    meshes = tmp_path / "meshes"
+    meshes.mkdir()
+    (meshes / "cube.obj").write_text(open(EXAMPLE.replace("spheres.txt", "cube.obj")).read())
+    scene = tmp_path / "scene.txt"
+    scene.write_text(HEADER + "Group { numObjects 1 TriangleMesh { obj_file cube.obj } }\n")
+    line = one_line_error(*run(capsys, "raycast", "-input", scene, "-size", 8, 8, "-output", tmp_path / "o.tga"))
+    assert line.startswith(f"{scene}:4: mesh file 'cube.obj' not found") and "--mesh-path DIR" in line
+    for argv in (["raycast", "-input", scene, "-size", 8, 8, "-output", tmp_path / "o.tga", "--mesh-path", meshes],
+                 ["render", scene, "-o", tmp_path / "o.png", "--size", 8, 8, "--mesh-path", meshes, "-q"],
+                 ["explain", scene, "--pixel", 4, 4, "--size", 8, 8, "--mesh-path", meshes]):
+        code, err = run(capsys, *argv)
+        assert code == 0, err
