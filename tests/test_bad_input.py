@@ -307,3 +307,13 @@ def test_the_missing_mesh_hint_names_a_flag_every_command_takes(tmp_path, capsys
                  ["explain", scene, "--pixel", 4, 4, "--size", 8, 8, "--mesh-path", meshes]):
         code, err = run(capsys, *argv)
         assert code == 0, err
+
+
+def test_radiance_beyond_float32_is_inf_without_a_warning(tmp_path):
+    path = tmp_path / "bright.txt"
+    path.write_text(HEADER + "Lights { numLights 1 PointLight { position 0 0 5 color 1 1 1 attenuation 0 0 1e-300 } }\n"
+                    + f"Group {{ numObjects 1 {SPHERE} }}")
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("error", RuntimeWarning)
+        result = durer.render(durer.load(path), 8, 8)
+    assert np.isinf(result.color[4, 4, 0]) and result.color.dtype == np.float32
