@@ -259,3 +259,61 @@ def test_a_sphere_scaled_past_float_range_renders_without_warnings(tmp_path):
         __import__("warnings").simplefilter("error", RuntimeWarning)
         result = durer.render(durer.load(path), 8, 8)
     assert np.isfinite(result.depth).any()
+
+
+@pytest.mark.parametrize("old, new", [
+    ("direction 0 -0.28 -1", "direction 1e308 -0.28 -1"),       # camera direction: norm overflowed in cameras.py
+    ("up 0 1 0", "up 0 1e308 0"),
+    ("direction 0.6 -1 -0.4", "direction 1e308 -1 -0.4"),      # a light's direction
+    ("normal 0 1 0", "normal 0 1e308 0"),                      # a plane's normal (course.py's zero check)
+    ("direction 0 -0.28 -1", "direction 0 -1e-320 -5e-321"),       # subnormal: still a direction
+])
+def test_huge_and_tiny_directions_load_without_warnings(tmp_path, old, new):
+    text = open(EXAMPLE).read()
+    assert old in text
+    path = tmp_path / "scene.txt"
+    path.write_text(text.replace(old, new, 1))
+    (tmp_path / "cube.obj").write_text(open(EXAMPLE.replace("spheres.txt", "cube.obj")).read())
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("error", RuntimeWarning)
+        scene = durer.load(path)
+        durer.render(scene, 4, 3, shadows=True)
+    direction = scene.camera.direction
+    assert np.isclose(np.linalg.norm(direction), 1.0)
+
+
+@pytest.mark.parametrize("vertex, message", [("v 1e308 0 0", "the model's coordinates overflow"),
+                                             ("v nan 0 0", "vertex 1 is not finite: [nan, 0.0, 0.0]")])
+def test_model_vertices_out_of_float_range_are_a_scene_error(tmp_path, capsys, vertex, message):
+    path = tmp_path / "big.obj"
+    path.write_text(f"v 0 0 0\n{vertex}\nv 0 1e308 0\nf 1 2 3\n")
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("error", RuntimeWarning)
+        line = one_line_error(*run(capsys, "render", path, "-o", tmp_path / "o.png", "--size", 4, 4))
+    assert line.startswith(f"{path}: {message}")
+
+
+def test_the_missing_mesh_hint_names_a_flag_every_command_takes(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("DURER_MESH_PATH", raising=False)
+    meshes = tmp_path / "meshes"
+    meshes.mkdir()
+    (meshes / "cube.obj").write_text(open(EXAMPLE.replace("spheres.txt", "cube.obj")).read())
+    scene = tmp_path / "scene.txt"
+    scene.write_text(HEADER + "Group { numObjects 1 TriangleMesh { obj_file cube.obj } }\n")
+    line = one_line_error(*run(capsys, "raycast", "-input", scene, "-size", 8, 8, "-output", tmp_path / "o.tga"))
+    assert line.startswith(f"{scene}:4: mesh file 'cube.obj' not found") and "--mesh-path DIR" in line
+    for argv in (["raycast", "-input", scene, "-size", 8, 8, "-output", tmp_path / "o.tga", "--mesh-path", meshes],
+                 ["render", scene, "-o", tmp_path / "o.png", "--size", 8, 8, "--mesh-path", meshes, "-q"],
+                 ["explain", scene, "--pixel", 4, 4, "--size", 8, 8, "--mesh-path", meshes]):
+        code, err = run(capsys, *argv)
+        assert code == 0, err
+
+
+def test_radiance_beyond_float32_is_inf_without_a_warning(tmp_path):
+    path = tmp_path / "bright.txt"
+    path.write_text(HEADER + "Lights { numLights 1 PointLight { position 0 0 5 color 1 1 1 attenuation 0 0 1e-300 } }\n"
+                    + f"Group {{ numObjects 1 {SPHERE} }}")
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("error", RuntimeWarning)
+        result = durer.render(durer.load(path), 8, 8)
+    assert np.isinf(result.color[4, 4, 0]) and result.color.dtype == np.float32

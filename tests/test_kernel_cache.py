@@ -12,11 +12,11 @@ import pytest
 import durer
 from durer.options import RenderOptions
 from durer.rendering import kernel_cache
-from durer.rendering.kernel_cache import BRUTE, BVH, FILM, GRID, PATH, TEXTURES, features
+from durer.rendering.kernel_cache import BRUTE, BUILD, BVH, FILM, GRID, PATH, TEXTURES, features
 
 
 def test_every_feature_names_modules_with_cached_kernels():
-    for feature in (BVH, PATH, GRID, BRUTE, TEXTURES, FILM):
+    for feature in (BVH, BUILD, PATH, GRID, BRUTE, TEXTURES, FILM):
         for name in feature.modules:
             module = importlib.import_module(f"durer.{name}")  # fails when a module moves: update the table
             assert kernel_cache._cache_folder(module) is not None, name
@@ -25,7 +25,7 @@ def test_every_feature_names_modules_with_cached_kernels():
 @pytest.mark.parametrize("options, expected", [
     (RenderOptions(), [BVH]),
     (RenderOptions(shadows=True, bounces=3), [BVH]),
-    (RenderOptions(integrator="path"), [BVH, PATH]),
+    (RenderOptions(integrator="path"), [BUILD, PATH]),  # the path tracer never calls bvh.trace
     (RenderOptions(grid=(4, 4, 4)), [GRID]),
     (RenderOptions(accel="brute", samples=4, sampler="jittered"), [BRUTE, FILM]),
     (RenderOptions(stats=True, filter="gaussian", filter_radius=0.4), [BRUTE, FILM]),
@@ -75,8 +75,17 @@ def test_the_notice_names_what_compiles_once(monkeypatch, capsys):
                     "them on disk) ...")
     assert capsys.readouterr().err == line + "\n"
     monkeypatch.setattr(kernel_cache, "module_cached", lambda module: False)
-    assert "of the BVH, the path tracer and the film's filters (about 63 s" in kernel_cache.compile_notice(
+    assert "of the BVH build, the path tracer and the film's filters (about 53 s" in kernel_cache.compile_notice(
         RenderOptions(integrator="path", samples=4))
+
+
+def test_a_path_only_cache_gives_no_notice_to_a_path_render(monkeypatch):
+    """Measured before the fix: after a path-traced render the next one announced the BVH's compile again, since
+    the path tracer never compiles bvh.trace, bvh.packet or bvh.single (it walks the tree in its own kernel)."""
+    walks = {f"durer.{m}" for m in BVH.modules} - {f"durer.{m}" for m in BUILD.modules}
+    monkeypatch.setattr(kernel_cache, "module_cached", lambda module: module.__name__ not in walks)
+    assert kernel_cache.compile_notice(RenderOptions(integrator="path")) is None
+    assert kernel_cache.cold_features(RenderOptions()) == [BVH]
 
 
 def test_render_prints_the_notice_only_when_not_quiet(monkeypatch, capsys):

@@ -236,7 +236,7 @@ class _Parser:
         t = self.t
         if kind == "DirectionalLight":
             v, lines = _fields(t, kind, {"direction": _vec3, "color": _vec3}, ("direction", "color"), line)
-            if not np.linalg.norm(v["direction"]) > 0:
+            if not v["direction"].any():
                 raise t.error("light direction has zero length", lines["direction"])
             return DirectionalLight(**v)
 
@@ -374,7 +374,7 @@ class _Parser:
             return Sphere(v["center"], v["radius"], material)
         if kind == "Plane":
             v, lines = _fields(t, kind, {"normal": _vec3, "offset": _num}, ("normal", "offset"), line)
-            if not np.linalg.norm(v["normal"]) > 0:
+            if not v["normal"].any():
                 raise t.error("plane normal has zero length", lines["normal"])
             return Plane(v["normal"], v["offset"], material)
         if kind == "Triangle":
@@ -454,7 +454,7 @@ class _Parser:
                 axis = t.vec3("Rotate axis")
                 angle = t.number("Rotate angle")
                 t.expect("}", "to close Rotate")
-                if not np.linalg.norm(axis) > 0:
+                if not axis.any():
                     raise t.error("rotation axis has zero length", iline)
                 m = m @ tf.rotate(axis, angle)
             elif kw == "Matrix":

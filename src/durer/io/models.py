@@ -52,7 +52,8 @@ def srgb_to_linear(c: np.ndarray) -> np.ndarray:
 def _trimesh_load(path: str):
     """trimesh's scene of a file, or SceneError naming the file (trimesh raises many kinds of errors). What trimesh
     lets through is checked here: OBJ face indices (0, or past the vertices read so far: `check_obj_faces`), a
-    glTF node hierarchy with a cycle, and faces whose indices lie outside their mesh's vertices (PLY, OFF)."""
+    glTF node hierarchy with a cycle, faces whose indices lie outside their mesh's vertices (PLY, OFF) and
+    vertices that are not finite."""
     import trimesh
 
     if not os.path.isfile(path):
@@ -73,6 +74,11 @@ def _trimesh_load(path: str):
         raise SceneError(f"cannot read model: {type(e).__name__}: {e}".splitlines()[0], path) from None
     for name, geom in tm.geometry.items():
         faces = np.asarray(getattr(geom, "faces", np.zeros((0, 3), np.int64)))
+        vertices = np.asarray(getattr(geom, "vertices", np.zeros((0, 3))))
+        if len(faces) and not np.isfinite(vertices).all():
+            k = int(np.flatnonzero(~np.isfinite(vertices).all(axis=1))[0])
+            raise SceneError(f"vertex {k}{f' (mesh {name!r})' if len(tm.geometry) > 1 else ''} is not finite: "
+                             f"{vertices[k].tolist()}", path)
         if len(faces) and (faces.min() < 0 or faces.max() >= len(geom.vertices)):
             k = int(np.flatnonzero(((faces < 0) | (faces >= len(geom.vertices))).any(axis=1))[0])
             what = f" (mesh {name!r})" if len(tm.geometry) > 1 else ""
@@ -169,7 +175,10 @@ def load_model(path: str | os.PathLike, mesh_path: list[str] | None = None, came
     if not objects:
         raise SceneError("the model has no triangles", path)
     center = (lo + hi) / 2
-    radius = max(float(np.linalg.norm(w - center, axis=1).max()) for w, _ in placed)
+    with np.errstate(over="ignore", invalid="ignore"):  # coordinates near 1e308: reported below, not warned
+        radius = max(float(np.linalg.norm(w - center, axis=1).max()) for w, _ in placed)
+    if not np.isfinite(radius):
+        raise SceneError("the model's coordinates overflow (its extent is beyond 1e154 or not finite)", path)
 
     gltf = read_gltf_json(path) if is_gltf else {}
     cameras = _malformed_is_scene_error(read_cameras, gltf, path) if is_gltf else []

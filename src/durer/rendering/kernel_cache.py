@@ -31,6 +31,9 @@ class Feature:
 
 
 BVH = Feature("the BVH", ("kernels.bvh.build", "kernels.bvh.trace", "kernels.bvh.packet", "kernels.bvh.single"), 15)
+# the path tracer builds the BVH but walks it in its own fused kernel (kernels/path/wavefront.py), never through
+# bvh.trace: a path-only install that asked for all of BVH announced a compile on every run
+BUILD = Feature("the BVH build", ("kernels.bvh.build",), 5)
 PATH = Feature("the path tracer", ("kernels.path.wavefront", "kernels.path.bsdf", "kernels.path.qmc"), 45)
 GRID = Feature("the uniform grid", ("kernels.course.grid",), 10)
 BRUTE = Feature("the every-object loop", ("kernels.brute",), 5)
@@ -42,9 +45,10 @@ def features(options: RenderOptions, scene=None) -> list[Feature]:
     """The kernel groups a render with these options (and this scene's materials) compiles."""
     from ..scene.textures import Checkerboard
 
-    needed = [GRID if options.grid is not None else BRUTE if options.accel == "brute" or options.stats else BVH]
     if options.integrator == "path":
-        needed.append(PATH)
+        needed = [BUILD, PATH]
+    else:
+        needed = [GRID if options.grid is not None else BRUTE if options.accel == "brute" or options.stats else BVH]
     materials = getattr(scene, "materials", None) or []
     if any(type(m).__name__ in ("Noise", "Marble", "Wood") for m in materials if not isinstance(m, Checkerboard)):
         needed.append(TEXTURES)

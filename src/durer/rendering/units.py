@@ -337,12 +337,14 @@ def finish(job: Job, acc: Accumulators) -> RenderResult:
     w = acc.weight[..., None]
     pixels = np.divide(acc.sums, w, out=np.zeros_like(acc.sums), where=w > 0)
     aovs, lo = {}, 3
-    for name, k in acc.channels[1:]:
-        aovs[name] = pixels[..., lo:lo + k].astype(np.float32)
-        lo += k
-    return RenderResult(color=pixels[..., :3].astype(np.float32), depth=acc.depth.astype(np.float32),
-                        normals=acc.normal.astype(np.float32), stats=getattr(job.ctx.accel, "stats", None),
-                        aovs=aovs)
+    # radiance beyond float32 (a light with attenuation 1e-300) is inf in the image, not a warning on stderr
+    with np.errstate(over="ignore"):
+        for name, k in acc.channels[1:]:
+            aovs[name] = pixels[..., lo:lo + k].astype(np.float32)
+            lo += k
+        return RenderResult(color=pixels[..., :3].astype(np.float32), depth=acc.depth.astype(np.float32),
+                            normals=acc.normal.astype(np.float32), stats=getattr(job.ctx.accel, "stats", None),
+                            aovs=aovs)
 
 
 def run(job: Job, units: list[tuple[Tile, range]] | None = None, bar=None) -> Accumulators:

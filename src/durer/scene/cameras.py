@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .values import tame, unit
+
 
 def orthonormal_basis(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(direction, up, horizontal) as a right-handed orthonormal frame; horizontal = direction x up.
@@ -22,13 +24,15 @@ def orthonormal_basis(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray
     u = np.asarray(up, dtype=np.float64).reshape(3)
     if not (np.isfinite(d).all() and np.isfinite(u).all()):
         raise ValueError("camera direction and up must be finite")
-    dn = np.linalg.norm(d)
-    if not dn > 0:
+    if not d.any():
         raise ValueError("camera direction has zero length")
-    d = d / dn
+    if not u.any():
+        raise ValueError("camera up vector is parallel to its direction (or zero)")
+    d, u = unit(d), tame(u)  # lengths do not matter; 1e308 components must not overflow (values.tame)
+    u0 = np.linalg.norm(u)
     u = u - np.dot(u, d) * d
     un = np.linalg.norm(u)
-    if not un > 1e-12 * max(1.0, np.linalg.norm(up)):
+    if not un > 1e-12 * max(1.0, u0):
         raise ValueError("camera up vector is parallel to its direction (or zero)")
     u = u / un
     h = np.cross(d, u)

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .values import unit
+
 
 def _three(v, what: str) -> np.ndarray:
     """Three float64 numbers, or a ValueError naming the field (finiteness is checked by each light)."""
@@ -27,12 +29,11 @@ class DirectionalLight:
     def __post_init__(self):
         self.direction = _three(self.direction, "DirectionalLight direction")
         self.color = _three(self.color, "DirectionalLight color")
-        n = np.linalg.norm(self.direction)
         if not (np.isfinite(self.direction).all() and np.isfinite(self.color).all()):
             raise ValueError("light direction and colour must be finite")
-        if not n > 0:
+        if not self.direction.any():
             raise ValueError("light direction has zero length")
-        self.direction = self.direction / n
+        self.direction = unit(self.direction)
 
 
 @dataclass

@@ -42,8 +42,11 @@ class Plane:
         self.offset = float(self.offset)
         if not np.isfinite(self.offset):
             raise ValueError(f"plane offset must be finite, got {self.offset}")
-        if not np.linalg.norm(self.normal) > 0:
+        if not self.normal.any():
             raise ValueError("plane normal has zero length")
+        biggest = float(np.abs(self.normal).max())
+        if not 1e-150 < biggest < 1e150:  # n.P = offset, scaled together so that |n| neither overflows nor vanishes
+            self.normal, self.offset = self.normal / biggest, self.offset / biggest
 
 
 @dataclass

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import DurerError
+from .values import unit
 
 
 def identity() -> np.ndarray:
@@ -30,10 +31,9 @@ def scale(factors) -> np.ndarray:
 def rotate(axis, degrees: float) -> np.ndarray:
     """Rotation by `degrees` about `axis` (right-handed, counter-clockwise looking down the axis)."""
     a = np.asarray(axis, dtype=np.float64)
-    n = np.linalg.norm(a)
-    if not n > 0:
+    if not (np.isfinite(a).all() and a.any()):
         raise DurerError("rotation axis has zero length")
-    x, y, z = a / n
+    x, y, z = unit(a)
     th = np.radians(degrees)
     c, s = np.cos(th), np.sin(th)
     C = 1.0 - c
