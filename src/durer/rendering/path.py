@@ -51,7 +51,7 @@ class PathTracer:
         self._surfaces = tuple(np.ascontiguousarray(a) for a in (
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
-            flat.plane_material))
+            flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3))))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
         # every piece of shading in Numba: other accelerators, instances, solid textures and environment maps take
         # the unfused wavefront of closest_hit / any_hit queries
@@ -222,6 +222,13 @@ class PathTracer:
         out = slot.copy()
         out[t] = chosen
         return out
+
+
+def _unit_corners(normals: np.ndarray) -> np.ndarray:
+    """(F, 3, 3) corner normals scaled to unit length (zero rows stay zero: flat triangles)."""
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3, 3)
+    length = np.linalg.norm(n, axis=2, keepdims=True)
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
 
 def path_trace(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float,
