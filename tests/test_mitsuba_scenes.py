@@ -30,6 +30,7 @@ LOADABLE = [
     "mitsuba-data/docs/scenes/bsdf_twosided_cbox.xml",
     "mitsuba-data/tests/scenes/instancing/test_instancing_path.xml",
     "mitsuba-data/tests/scenes/infinite_mirrors/scene_path.xml",
+    "mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml",
     "roblesch-roulette/renderer/scene_v3.xml",
 ]
 SLOW = pytest.mark.slow
@@ -44,6 +45,8 @@ RENDERS = [
                  {}, 64, id="twosided-cbox"),
     pytest.param("roblesch-roulette/renderer/scene_v3.xml", "roblesch-roulette/renderer/scene_v3.xml", {}, 64,
                  id="bitterli-cbox"),
+    pytest.param("mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml",
+                 "mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml", {}, 32, id="orthographic"),
     pytest.param("mitsuba-data/docs/scenes/bsdf_roughplastic_ggx.xml",
                  "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 32, id="roughplastic-ggx"),
     pytest.param("mitsuba-data/docs/scenes/shape_ply_bunny.xml", "mitsuba-data/docs/scenes/include/shape_scene.xml",
