@@ -20,12 +20,16 @@ ALL = {
     "mirror": S.Conductor(),
     "roughconductor": S.RoughConductor.named("Cu", alpha_u=0.3, alpha_v=0.3),
     "anisotropic": S.RoughConductor.named("Al", alpha_u=0.1, alpha_v=0.5),
+    "beckmann": S.RoughConductor.named("Al", alpha_u=0.05, alpha_v=0.3, distribution="beckmann"),
+    "beckmann_rough": S.RoughConductor.named("Cu", alpha_u=0.6, alpha_v=0.6, distribution="beckmann"),
+    "roughplastic_beckmann": S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2, distribution="beckmann"),
     "plastic": S.Plastic([0.2, 0.5, 0.8]),
     "roughplastic": S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2),
     "twosided": S.TwoSided(S.Diffuse(0.8)),
     "course_glass": PhongMaterial((0.1, 0.1, 0.1), (1, 1, 1), 100.0, (0.3, 0.3, 0.3), (0.7, 0.7, 0.7), 2.0),
 }
-SMOOTH = ["diffuse", "roughconductor", "anisotropic", "plastic", "roughplastic", "twosided", "phong"]
+SMOOTH = ["diffuse", "roughconductor", "anisotropic", "beckmann", "beckmann_rough", "plastic", "roughplastic",
+          "roughplastic_beckmann", "twosided", "phong"]
 
 
 def _table(m):
@@ -126,6 +130,10 @@ MITSUBA_CASES = [
      S.RoughConductor.named("Au", alpha_u=0.3, alpha_v=0.3), 1e-5),
     ({"type": "roughconductor", "material": "Cu", "alpha_u": 0.1, "alpha_v": 0.4, "distribution": "ggx"},
      S.RoughConductor.named("Cu", alpha_u=0.1, alpha_v=0.4), 1e-5),
+    ({"type": "roughconductor", "material": "Al", "alpha_u": 0.05, "alpha_v": 0.3},  # Beckmann, Mitsuba's default
+     S.RoughConductor.named("Al", alpha_u=0.05, alpha_v=0.3, distribution="beckmann"), 1e-5),
+    ({"type": "roughconductor", "material": "Cu", "alpha": 0.6, "distribution": "beckmann"},
+     S.RoughConductor.named("Cu", alpha_u=0.6, alpha_v=0.6, distribution="beckmann"), 1e-5),
     ({"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
      S.Plastic([0.2, 0.5, 0.8]), 1e-5),
     ({"type": "plastic", "nonlinear": True, "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
@@ -134,10 +142,14 @@ MITSUBA_CASES = [
     ({"type": "roughplastic", "distribution": "ggx", "alpha": 0.2,
       "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}}, S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2),
      3e-3),
+    ({"type": "roughplastic", "alpha": 0.2, "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
+     S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2, distribution="beckmann"), 3e-3),
 ]
 
 
-@pytest.mark.parametrize("mdict,ours,tol", MITSUBA_CASES, ids=[c[0]["type"] for c in MITSUBA_CASES])
+@pytest.mark.parametrize("mdict,ours,tol", MITSUBA_CASES,
+                         ids=[c[0]["type"] + "-" + c[0].get("distribution", "beckmann" if "rough" in c[0]["type"]
+                                                             else "") for c in MITSUBA_CASES])
 def test_eval_and_pdf_match_mitsuba(mdict, ours, tol):
     mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is the independent reference for the BSDF values")
     mi.set_variant("scalar_rgb")

@@ -104,9 +104,8 @@ def _bsdf(builder, node, depth: int):
     rough = t in ("roughconductor", "roughplastic")
     if rough:
         dist = p.get("distribution", "beckmann", str)
-        if dist != "ggx":
-            raise node.error(f"{t}: only distribution 'ggx' is supported (Mitsuba's default is beckmann; "
-                             "set it explicitly)", p.where("distribution"))
+        if dist not in ("ggx", "beckmann"):
+            raise node.error(f"{t}: unknown distribution '{dist}' (use beckmann or ggx)", p.where("distribution"))
         if not p.get("sample_visible", True, bool):
             raise node.error(f"{t}: sample_visible must be true")
         alpha = scalar(builder, node, p, "alpha", 0.1)
@@ -122,7 +121,7 @@ def _bsdf(builder, node, depth: int):
         kw = dict(specular_reflectance=colour(builder, node, p, "specular_reflectance", 1.0))
         if t == "roughconductor":
             kw.update(alpha_u=scalar(builder, node, p, "alpha_u", alpha),
-                      alpha_v=scalar(builder, node, p, "alpha_v", alpha))
+                      alpha_v=scalar(builder, node, p, "alpha_v", alpha), distribution=dist)
         cls = B.RoughConductor if t == "roughconductor" else B.Conductor
         if material is not None and (eta is not None or k is not None):
             raise node.error(f"{t}: give either material or eta and k")
@@ -134,7 +133,7 @@ def _bsdf(builder, node, depth: int):
         args = (colour(builder, node, p, "diffuse_reflectance", 0.5),
                 colour(builder, node, p, "specular_reflectance", 1.0),
                 p.get("int_ior", 1.49, "ior"), p.get("ext_ior", 1.000277, "ior"), p.get("nonlinear", False, bool))
-        out = call(node, B.RoughPlastic, *args, alpha) if rough else call(node, B.Plastic, *args)
+        out = call(node, B.RoughPlastic, *args, alpha, dist) if rough else call(node, B.Plastic, *args)
     else:  # twosided
         if len(node.children) != 1:
             raise node.error("twosided needs exactly one nested bsdf (durer has no different back side)")

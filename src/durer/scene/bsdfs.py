@@ -126,17 +126,25 @@ class Conductor:
         return cls(eta=eta, k=k, **kw)
 
 
+def _distribution(v) -> str:
+    if v not in ("ggx", "beckmann"):
+        raise ValueError(f"microfacet distribution must be 'ggx' or 'beckmann', got {v!r}")
+    return v
+
+
 @dataclass
 class RoughConductor(Conductor):
-    """A rough metal: GGX microfacets (anisotropic with alpha_u != alpha_v), Smith shadowing, sampled from the
-    visible normals (Heitz 2018)."""
+    """A rough metal: GGX (or Beckmann, Mitsuba's default) microfacets, anisotropic with alpha_u != alpha_v, Smith
+    shadowing, sampled from the visible normals."""
 
     alpha_u: float = 0.1
     alpha_v: float = 0.1
+    distribution: str = "ggx"
 
     def __post_init__(self):
         super().__post_init__()
         self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
+        self.distribution = _distribution(self.distribution)
 
 
 @dataclass
@@ -158,13 +166,15 @@ class Plastic:
 
 @dataclass
 class RoughPlastic(Plastic):
-    """A diffuse base under a rough (GGX) dielectric coating (Mitsuba's `roughplastic`)."""
+    """A diffuse base under a rough (GGX or Beckmann) dielectric coating (Mitsuba's `roughplastic`)."""
 
     alpha: float = 0.1
+    distribution: str = "ggx"
 
     def __post_init__(self):
         super().__post_init__()
         self.alpha = _alpha(self.alpha)
+        self.distribution = _distribution(self.distribution)
 
 
 @dataclass

@@ -5,7 +5,10 @@ drives it between the accelerator's closest-hit and any-hit queries and document
 work on one path, is also the shading of the fused bounce (kernels/path/wavefront.py).
 
 Random numbers come from the counter-based stream (kernels/path/qmc.py) keyed by (seed, pixel, sample, dimension), so
-every path's numbers depend only on the path: the result is the same whatever the thread count or work split."""
+every path's numbers depend only on the path: the result is the same whatever the thread count or work split.
+
+Numba's on-disk cache of shade_bounce is keyed on this file alone, not on the BSDF and emitter kernels it inlines:
+after a change there (the BSDF table gained its BECKMANN column), delete __pycache__ or touch this file."""
 
 from __future__ import annotations
 

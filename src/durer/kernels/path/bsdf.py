@@ -14,14 +14,15 @@ import math
 import numba as nb
 
 from ..common import JIT
-from .microfacet import fresnel1, fresnel_conductor1, ggx_d1, ggx_g11, ggx_sample_visible1
+from .microfacet import d1, fresnel1, fresnel_conductor1, g11, sample_visible1
 from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
 
 DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK = range(8)
 # columns of the packed table: kind, flags, four colours (3 each), scalars, emission
 KIND, TWOSIDED, C1, C2, C3, C4, ETA, AU, AV, EXPONENT, SPEC_WEIGHT, FDR_INT, NONLINEAR, FLIP, EMISSION, SMOOTH = (
     0, 1, 2, 5, 8, 11, 14, 15, 16, 17, 18, 19, 20, 21, 22, 25)
-COLUMNS = 26
+BECKMANN = 26  # rough BSDFs: 1 for Beckmann microfacets, 0 for GGX
+COLUMNS = 27
 
 
 @nb.njit(**JIT, inline="always")
@@ -63,14 +64,15 @@ def _plastic_probs(P, T, s, wz):
 
 
 @nb.njit(**JIT)
-def _microfacet(wi, wo, au, av):
-    """GGX terms of a rough BSDF's eval: half vector, D, G1(wi), G and the clamped cos of wi."""
+def _microfacet(wi, wo, au, av, beck):
+    """Microfacet terms (GGX, or Beckmann where beck) of a rough BSDF's eval: half vector, D, G1(wi), G and the
+    clamped cos of wi."""
     hx, hy, hz = wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]
     ln = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-300)
     hx, hy, hz = hx / ln, hy / ln, hz / ln
-    d = ggx_d1(hx, hy, hz, au, av)
-    g1i = ggx_g11(wi[0], wi[1], wi[2], hx, hy, hz, au, av)
-    g = g1i * ggx_g11(wo[0], wo[1], wo[2], hx, hy, hz, au, av)
+    d = d1(hx, hy, hz, au, av, beck)
+    g1i = g11(wi[0], wi[1], wi[2], hx, hy, hz, au, av, beck)
+    g = g1i * g11(wo[0], wo[1], wo[2], hx, hy, hz, au, av, beck)
     return hx, hy, hz, d, g1i, g, max(wi[2], 1e-300)
 
 
@@ -95,7 +97,7 @@ def _diffuse_eval(P, s, wi, wo):
 @nb.njit(**JIT)
 def _roughconductor_eval(P, s, wi, wo):
     ok = wi[2] > 0 and wo[2] > 0
-    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, P[s, AU], P[s, AV])
+    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, P[s, AU], P[s, AV], P[s, BECKMANN] != 0)
     ch = wi[0] * hx + wi[1] * hy + wi[2] * hz
     m = d * g / (4.0 * cos_i) if ok else 0.0
     v0 = P[s, C1] * fresnel_conductor1(ch, P[s, C3], P[s, C4]) * m
@@ -120,7 +122,7 @@ def _roughplastic_eval(P, T, s, wi, wo):
         return 0.0, 0.0, 0.0, 0.0
     c = wo[2]
     au, eta = P[s, AU], P[s, ETA]
-    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, au, au)
+    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, au, au, P[s, BECKMANN] != 0)
     spec = fresnel1(wi[0] * hx + wi[1] * hy + wi[2] * hz, eta)[0] * d * g / (4.0 * cos_i)
     m = _transmittance(T, s, wi[2]) * _transmittance(T, s, wo[2]) * c / (math.pi * eta * eta)
     ps, pd = _plastic_probs(P, T, s, wi[2])
@@ -197,11 +199,11 @@ def _conductor_sample(P, s, wi):
 @nb.njit(**JIT)
 def _roughconductor_sample(P, s, wi, u20, u21):
     wx, wy, wz = wi
-    au, av = P[s, AU], P[s, AV]
-    mx, my, mz = ggx_sample_visible1(wx, wy, wz, u20, u21, au, av)
+    au, av, beck = P[s, AU], P[s, AV], P[s, BECKMANN] != 0
+    mx, my, mz = sample_visible1(wx, wy, wz, u20, u21, au, av, beck)
     wo = _reflect(wx, wy, wz, mx, my, mz)
     ok = 1.0 if wz > 0 and wo[2] > 0 else 0.0
-    g = ggx_g11(wo[0], wo[1], wo[2], mx, my, mz, au, av) * ok
+    g = g11(wo[0], wo[1], wo[2], mx, my, mz, au, av, beck) * ok
     cm = wx * mx + wy * my + wz * mz
     pdf = _roughconductor_eval(P, s, wi, wo)[3]
     return (wo, (P[s, C1] * fresnel_conductor1(cm, P[s, C3], P[s, C4]) * g,
@@ -229,9 +231,9 @@ def _roughplastic_sample(P, T, s, wi, u1, u20, u21):
     wx, wy, wz = wi
     ps = _plastic_probs(P, T, s, wz)[0]
     if u1 < ps:
-        au = P[s, AU]
-        mx, my, mz = (ggx_sample_visible1(wx, wy, wz, u20, u21, au, au) if wz > 0 else
-                      ggx_sample_visible1(0.0, 0.0, 1.0, u20, u21, au, au))
+        au, beck = P[s, AU], P[s, BECKMANN] != 0
+        mx, my, mz = (sample_visible1(wx, wy, wz, u20, u21, au, au, beck) if wz > 0 else
+                      sample_visible1(0.0, 0.0, 1.0, u20, u21, au, au, beck))
         wo = _reflect(wx, wy, wz, mx, my, mz)
     else:
         wo = cosine_hemisphere3(u20, u21)
