@@ -135,7 +135,7 @@ class PathTracer:
         o, d = np.ascontiguousarray(origins, dtype=np.float64).copy(), np.ascontiguousarray(normalize(directions))
         thr, eta = np.ones((n, 3)), np.ones(n)
         prev = np.column_stack([np.ones(n), np.ones(n), origins])  # pdf, delta flag, point of the last bounce
-        p, ng, slot_em = np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
+        p, ng, ns, slot_em = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
         shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
                                                              np.empty((n, 3)), np.empty(n, bool))
         sh_o, sh_d, sh_t = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -147,7 +147,7 @@ class PathTracer:
             # camera rays may be traced as image tiles (width 0: the accelerator looks); later rays are not an image
             hits = ctx.accel.closest_hit(o[:m], d[:m], t_min=tmin, width=0 if depth == 0 else -1)
             hit = hits.hit
-            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, slot_em)
+            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, ns, slot_em)
             if depth == 0:
                 first_t[idx], first_n[idx] = hits.t, ng[:m]
             last = 0 <= self.max_depth <= depth + 1
@@ -158,7 +158,7 @@ class PathTracer:
             env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
             if em.envmap is not None and not last:
                 env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
-            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, slot_em, slot,
+            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, ns, slot_em, slot,
                        (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
                        tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth), L,
                        (shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok), (nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta))
