@@ -29,6 +29,7 @@ LOADABLE = [
     "mitsuba-data/docs/scenes/bsdf_roughplastic_ggx.xml",
     "mitsuba-data/docs/scenes/bsdf_twosided_cbox.xml",
     "mitsuba-data/docs/scenes/integrator_direct_both.xml",
+    "mitsuba-data/docs/scenes/bsdf_roughdielectric_textured.xml",
     # loads; renders 3.7% bright: durer's tangent frame is not Mitsuba's dp/du, which anisotropic roughness sees
     "mitsuba-data/docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml",
     "mitsuba-data/tests/scenes/instancing/test_instancing_path.xml",
@@ -54,6 +55,10 @@ RENDERS = [
                  "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 32, id="roughplastic-ggx"),
     pytest.param("mitsuba-data/docs/scenes/shape_ply_bunny.xml", "mitsuba-data/docs/scenes/include/shape_scene.xml",
                  {}, 32, id="bunny"),
+    # near-smooth glass cells (alpha 1e-4) lit by an envmap: noisy, so 128 spp
+    pytest.param("mitsuba-data/docs/scenes/bsdf_roughdielectric_textured.xml",
+                 "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 128, id="roughdielectric-textured",
+                 marks=SLOW),
     # small bright emitters: Mitsuba's own mean moves by 3% between 256-spp renders, so 512 spp
     pytest.param("mitsuba-data/docs/scenes/integrator_direct_both.xml",
                  "mitsuba-data/docs/scenes/include/veach_mis.xml", {}, 512, id="direct-both", marks=SLOW),

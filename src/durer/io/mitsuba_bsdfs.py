@@ -14,7 +14,8 @@ import numpy as np
 from ..scene import bsdfs as B
 from .mitsuba_tree import Node, Props, call
 
-BSDFS = ("diffuse", "dielectric", "conductor", "roughconductor", "plastic", "roughplastic", "twosided")
+BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic", "roughplastic",
+         "twosided")
 
 
 def _texture(builder, node, name: str):
@@ -36,9 +37,11 @@ def colour(builder, node, p: Props, name: str, default):
 
 
 def scalar(builder, node, p: Props, name: str, default):
-    """A number parameter that Mitsuba accepts as a texture (roughness alpha)."""
+    """A number parameter that Mitsuba accepts as a texture (roughness alpha, which Mitsuba's microfacet
+    distributions raise to at least 1e-4)."""
     _texture(builder, node, name)
-    return p.get(name, default, float)
+    x = p.get(name, default, float)
+    return max(x, 1e-4) if name.startswith("alpha") and x >= 0 else x
 
 
 @dataclass
@@ -101,7 +104,7 @@ def _bsdf(builder, node, depth: int):
     t = node.type
     if t not in BSDFS:
         raise node.error(f"unsupported bsdf '{t}' (durer renders {', '.join(BSDFS)})")
-    rough = t in ("roughconductor", "roughplastic")
+    rough = t in ("roughconductor", "roughplastic", "roughdielectric")
     if rough:
         dist = p.get("distribution", "beckmann", str)
         if dist not in ("ggx", "beckmann"):
@@ -111,10 +114,15 @@ def _bsdf(builder, node, depth: int):
         alpha = scalar(builder, node, p, "alpha", 0.1)
     if t == "diffuse":
         out = call(node, B.Diffuse, colour(builder, node, p, "reflectance", 0.5))
-    elif t == "dielectric":
-        out = call(node, B.Dielectric, p.get("int_ior", 1.5046, "ior"), p.get("ext_ior", 1.000277, "ior"),
-                   colour(builder, node, p, "specular_reflectance", 1.0),
-                   colour(builder, node, p, "specular_transmittance", 1.0))
+    elif t in ("dielectric", "roughdielectric"):
+        args = (p.get("int_ior", 1.5046, "ior"), p.get("ext_ior", 1.000277, "ior"),
+                colour(builder, node, p, "specular_reflectance", 1.0),
+                colour(builder, node, p, "specular_transmittance", 1.0))
+        if rough:
+            out = call(node, B.RoughDielectric, *args, scalar(builder, node, p, "alpha_u", alpha),
+                       scalar(builder, node, p, "alpha_v", alpha), dist)
+        else:
+            out = call(node, B.Dielectric, *args)
     elif t in ("conductor", "roughconductor"):
         material = p.get("material", None, str)
         eta, k = colour(builder, node, p, "eta", None), colour(builder, node, p, "k", None)

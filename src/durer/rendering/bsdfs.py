@@ -49,6 +49,7 @@ from ..kernels.path.bsdf import (
     PHONG,
     PLASTIC,
     ROUGHCONDUCTOR,
+    ROUGHDIELECTRIC,
     ROUGHPLASTIC,
     SMOOTH,
     SPEC_WEIGHT,
@@ -57,7 +58,17 @@ from ..kernels.path.bsdf import (
     sample_kernel,
 )
 from ..kernels.path.microfacet import rough_albedo_kernel
-from ..scene.bsdfs import Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughPlastic, Surface, TwoSided
+from ..scene.bsdfs import (
+    Conductor,
+    Dielectric,
+    Diffuse,
+    Plastic,
+    RoughConductor,
+    RoughDielectric,
+    RoughPlastic,
+    Surface,
+    TwoSided,
+)
 from ..scene.materials import PhongMaterial
 
 ROUGH_RES = 64  # cos(theta) samples of the rough plastic's transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
@@ -148,6 +159,9 @@ def _row(m) -> dict:
                  exponent=m.exponent)
     elif isinstance(m, Diffuse):
         r.update(kind=DIFFUSE, c1=m.reflectance)
+    elif isinstance(m, RoughDielectric):
+        r.update(kind=ROUGHDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
+                 eta=m.int_ior / m.ext_ior, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")
     elif isinstance(m, Dielectric):
         r.update(kind=DIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance, eta=m.int_ior / m.ext_ior)
     elif isinstance(m, Conductor):

@@ -74,6 +74,12 @@ def _alpha(v) -> float:
     return x
 
 
+def _distribution(v) -> str:
+    if v not in ("ggx", "beckmann"):
+        raise ValueError(f"microfacet distribution must be 'ggx' or 'beckmann', got {v!r}")
+    return v
+
+
 def _albedo(v, what: str) -> np.ndarray:
     a = rgb(v, what)
     if a.min() < 0:
@@ -107,6 +113,21 @@ class Dielectric:
 
 
 @dataclass
+class RoughDielectric(Dielectric):
+    """Rough glass (Mitsuba's `roughdielectric`): GGX or Beckmann microfacets reflecting and refracting (Walter et
+    al. 2007), sampled from the visible normals."""
+
+    alpha_u: float = 0.1
+    alpha_v: float = 0.1
+    distribution: str = "ggx"
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
+        self.distribution = _distribution(self.distribution)
+
+
+@dataclass
 class Conductor:
     """A smooth metal mirror with the Fresnel reflectance of the complex index eta + i k (per RGB channel)."""
 
@@ -124,12 +145,6 @@ class Conductor:
             raise ValueError(f"unknown conductor material {material!r} (use one of {', '.join(METALS)})")
         eta, k = METALS[material]
         return cls(eta=eta, k=k, **kw)
-
-
-def _distribution(v) -> str:
-    if v not in ("ggx", "beckmann"):
-        raise ValueError(f"microfacet distribution must be 'ggx' or 'beckmann', got {v!r}")
-    return v
 
 
 @dataclass
@@ -188,7 +203,7 @@ class TwoSided:
             raise ValueError(f"twosided cannot wrap a {type(self.bsdf).__name__}")
 
 
-BSDF = Diffuse | Dielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided
+BSDF = Diffuse | Dielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided
 
 
 @dataclass
