@@ -78,7 +78,8 @@ ERRORS = [
     ("<texture type=\"bitmap\"/>", 3, "unsupported texture 'bitmap'"),
     ("<shape type=\"sphere\">\n<float name=\"radius\" value=\"1\"/>\n<float name=\"size\" value=\"2\"/></shape>", 5,
      "unsupported parameter 'size' of shape 'sphere'"),
-    ("<shape type=\"sphere\"><bsdf type=\"roughconductor\"/></shape>", 3, "only distribution 'ggx'"),
+    ("<shape type=\"sphere\"><bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/>"
+     "</bsdf></shape>", 3, "unknown distribution 'phong'"),
     ("<shape type=\"sphere\">\n<float name=\"radius\" value=\"abc\"/></shape>", 4, "radius: not a number"),
     ("<shape type=\"sphere\">\n<float name=\"radius\" value=\"$nope\"/></shape>", 4, "undefined parameter $nope"),
     ("<shape type=\"sphere\">\n<ref id=\"missing\"/></shape>", 4, "reference to unknown id 'missing'"),

@@ -28,11 +28,38 @@ def test_hit_surfaces_match_the_numpy_definitions():
     hits = BVHAccelerator(cs).closest_hit(o, d)
     assert {1, 2, 3} <= set(np.unique(hits.kind)) and (hits.kind == 0).any()  # triangles, spheres, planes, misses
     flat = cs.flat
-    p, ng, slot = np.empty((4000, 3)), np.empty((4000, 3)), np.empty(4000, np.int64)
+    p, ng, ns, slot = np.empty((4000, 3)), np.empty((4000, 3)), np.empty((4000, 3)), np.empty(4000, np.int64)
     hit_surfaces(o, d, hits.t, hits.kind, hits.prim, flat.triangles.reshape(-1, 3, 3), flat.triangle_material,
                  flat.sphere_world_to_object, flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material,
-                 flat.plane_normal, flat.plane_material, p, ng, slot, 0, 4000)
+                 flat.plane_normal, flat.plane_material, np.zeros((0, 3, 3)), p, ng, ns, slot, 0, 4000)
     expect_p = o + np.where(hits.hit, hits.t, 0.0)[:, None] * d
     np.testing.assert_allclose(p, expect_p, rtol=0, atol=1e-12)
     np.testing.assert_allclose(ng, geometric_normals(cs, hits, expect_p), rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(ns, ng)  # no vertex normals: shading = geometric
     np.testing.assert_array_equal(slot, hit_materials(cs, hits))
+
+
+def test_vertex_normals_are_interpolated_at_the_hit():
+    """A mesh with vertex normals shades with their barycentric mix (Mitsuba's shading normal); without, flat."""
+    v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    n = np.array([[0.0, 0, 1], [1, 0, 1], [0, 1, 1]])
+    scene = Scene(camera=OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 5),
+                  group=Group([TriangleMesh(v, [[0, 1, 2]], normals=n)]))
+    cs = compile_scene(scene)
+    o = np.array([[0.2, 0.3, 1.0], [0.0, 0.0, 1.0]])
+    d = np.array([[0.0, 0, -1], [0.0, 0, -1]])
+    hits = BVHAccelerator(cs).closest_hit(o, d)
+    corners = cs.triangle_normals.reshape(-1, 3, 3)
+    corners = corners / np.linalg.norm(corners, axis=2, keepdims=True)
+    p, ng, ns, slot = np.empty((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.empty(2, np.int64)
+    args = (o, d, hits.t, hits.kind, hits.prim, cs.triangles.reshape(-1, 3, 3), cs.triangle_material,
+            cs.sphere_world_to_object, cs.sphere_center, cs.sphere_normal_matrix, cs.sphere_material,
+            cs.plane_normal, cs.plane_material)
+    hit_surfaces(*args, corners, p, ng, ns, slot, 0, 2)
+    expect = 0.5 * corners[0, 0] + 0.2 * corners[0, 1] + 0.3 * corners[0, 2]
+    np.testing.assert_allclose(ns[0], expect / np.linalg.norm(expect), atol=1e-12)
+    np.testing.assert_allclose(ns[1], corners[0, 0], atol=1e-12)
+    np.testing.assert_allclose(ns[0], cs.normals_at(hits.prim[:1], p[:1])[0], atol=1e-12)
+    np.testing.assert_allclose(ng, [[0, 0, 1], [0, 0, 1]], atol=1e-12)  # the geometric normal stays
+    hit_surfaces(*args, np.zeros((0, 3, 3)), p, ng, ns, slot, 0, 2)
+    np.testing.assert_allclose(ns, [[0, 0, 1], [0, 0, 1]], atol=1e-12)

@@ -28,8 +28,13 @@ LOADABLE = [
     "mitsuba-data/docs/scenes/shape_ply_bunny.xml",
     "mitsuba-data/docs/scenes/bsdf_roughplastic_ggx.xml",
     "mitsuba-data/docs/scenes/bsdf_twosided_cbox.xml",
+    "mitsuba-data/docs/scenes/integrator_direct_both.xml",
+    "mitsuba-data/docs/scenes/bsdf_roughdielectric_textured.xml",
+    # loads; renders 3.7% bright: durer's tangent frame is not Mitsuba's dp/du, which anisotropic roughness sees
+    "mitsuba-data/docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml",
     "mitsuba-data/tests/scenes/instancing/test_instancing_path.xml",
     "mitsuba-data/tests/scenes/infinite_mirrors/scene_path.xml",
+    "mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml",
     "roblesch-roulette/renderer/scene_v3.xml",
 ]
 SLOW = pytest.mark.slow
@@ -44,10 +49,19 @@ RENDERS = [
                  {}, 64, id="twosided-cbox"),
     pytest.param("roblesch-roulette/renderer/scene_v3.xml", "roblesch-roulette/renderer/scene_v3.xml", {}, 64,
                  id="bitterli-cbox"),
+    pytest.param("mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml",
+                 "mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml", {}, 32, id="orthographic"),
     pytest.param("mitsuba-data/docs/scenes/bsdf_roughplastic_ggx.xml",
                  "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 32, id="roughplastic-ggx"),
     pytest.param("mitsuba-data/docs/scenes/shape_ply_bunny.xml", "mitsuba-data/docs/scenes/include/shape_scene.xml",
                  {}, 32, id="bunny"),
+    # near-smooth glass cells (alpha 1e-4) lit by an envmap: noisy, so 128 spp
+    pytest.param("mitsuba-data/docs/scenes/bsdf_roughdielectric_textured.xml",
+                 "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 128, id="roughdielectric-textured",
+                 marks=SLOW),
+    # small bright emitters: Mitsuba's own mean moves by 3% between 256-spp renders, so 512 spp
+    pytest.param("mitsuba-data/docs/scenes/integrator_direct_both.xml",
+                 "mitsuba-data/docs/scenes/include/veach_mis.xml", {}, 512, id="direct-both", marks=SLOW),
     # two-level traversal: its kernels' first compile takes about a minute
     pytest.param("mitsuba-data/tests/scenes/instancing/test_instancing_path.xml", None, {}, 32, id="instancing",
                  marks=SLOW),

@@ -20,12 +20,18 @@ ALL = {
     "mirror": S.Conductor(),
     "roughconductor": S.RoughConductor.named("Cu", alpha_u=0.3, alpha_v=0.3),
     "anisotropic": S.RoughConductor.named("Al", alpha_u=0.1, alpha_v=0.5),
+    "beckmann": S.RoughConductor.named("Al", alpha_u=0.05, alpha_v=0.3, distribution="beckmann"),
+    "beckmann_rough": S.RoughConductor.named("Cu", alpha_u=0.6, alpha_v=0.6, distribution="beckmann"),
+    "roughplastic_beckmann": S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2, distribution="beckmann"),
+    "roughdielectric": S.RoughDielectric(1.5, alpha_u=0.3, alpha_v=0.3),
+    "roughdielectric_beckmann": S.RoughDielectric(1.33, alpha_u=0.3, alpha_v=0.5, distribution="beckmann"),
     "plastic": S.Plastic([0.2, 0.5, 0.8]),
     "roughplastic": S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2),
     "twosided": S.TwoSided(S.Diffuse(0.8)),
     "course_glass": PhongMaterial((0.1, 0.1, 0.1), (1, 1, 1), 100.0, (0.3, 0.3, 0.3), (0.7, 0.7, 0.7), 2.0),
 }
-SMOOTH = ["diffuse", "roughconductor", "anisotropic", "plastic", "roughplastic", "twosided", "phong"]
+SMOOTH = ["diffuse", "roughconductor", "anisotropic", "beckmann", "beckmann_rough", "plastic", "roughplastic",
+          "roughplastic_beckmann", "twosided", "phong"]
 
 
 def _table(m):
@@ -62,7 +68,10 @@ def _chi2_z(observed, expected) -> float:
     return ((chi2 / k) ** (1 / 3) - (1 - 2 / (9 * k))) / math.sqrt(2 / (9 * k))
 
 
-@pytest.mark.parametrize("name", SMOOTH)
+TRANSMITTING = ["roughdielectric", "roughdielectric_beckmann"]  # not reciprocal in radiance: no reciprocity test
+
+
+@pytest.mark.parametrize("name", SMOOTH + TRANSMITTING)
 @pytest.mark.parametrize("cos_i", [0.25, 0.8])
 def test_chi_square_sampling_matches_pdf(name, cos_i):
     """Histogram of sampled non-delta directions over (cos theta, phi) bins vs the pdf integrated over each bin."""
@@ -126,6 +135,10 @@ MITSUBA_CASES = [
      S.RoughConductor.named("Au", alpha_u=0.3, alpha_v=0.3), 1e-5),
     ({"type": "roughconductor", "material": "Cu", "alpha_u": 0.1, "alpha_v": 0.4, "distribution": "ggx"},
      S.RoughConductor.named("Cu", alpha_u=0.1, alpha_v=0.4), 1e-5),
+    ({"type": "roughconductor", "material": "Al", "alpha_u": 0.05, "alpha_v": 0.3},  # Beckmann, Mitsuba's default
+     S.RoughConductor.named("Al", alpha_u=0.05, alpha_v=0.3, distribution="beckmann"), 1e-5),
+    ({"type": "roughconductor", "material": "Cu", "alpha": 0.6, "distribution": "beckmann"},
+     S.RoughConductor.named("Cu", alpha_u=0.6, alpha_v=0.6, distribution="beckmann"), 1e-5),
     ({"type": "plastic", "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
      S.Plastic([0.2, 0.5, 0.8]), 1e-5),
     ({"type": "plastic", "nonlinear": True, "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
@@ -134,10 +147,14 @@ MITSUBA_CASES = [
     ({"type": "roughplastic", "distribution": "ggx", "alpha": 0.2,
       "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}}, S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2),
      3e-3),
+    ({"type": "roughplastic", "alpha": 0.2, "diffuse_reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}},
+     S.RoughPlastic([0.2, 0.5, 0.8], alpha=0.2, distribution="beckmann"), 3e-3),
 ]
 
 
-@pytest.mark.parametrize("mdict,ours,tol", MITSUBA_CASES, ids=[c[0]["type"] for c in MITSUBA_CASES])
+@pytest.mark.parametrize("mdict,ours,tol", MITSUBA_CASES,
+                         ids=[c[0]["type"] + "-" + c[0].get("distribution", "beckmann" if "rough" in c[0]["type"]
+                                                             else "") for c in MITSUBA_CASES])
 def test_eval_and_pdf_match_mitsuba(mdict, ours, tol):
     mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is the independent reference for the BSDF values")
     mi.set_variant("scalar_rgb")
@@ -156,3 +173,27 @@ def test_eval_and_pdf_match_mitsuba(mdict, ours, tol):
         mp.append(b.pdf(ctx, si, mi.Vector3f(c)))
     np.testing.assert_allclose(v, np.array(mv), rtol=tol, atol=tol * np.max(mv))
     np.testing.assert_allclose(p, np.array(mp), rtol=tol, atol=tol * np.max(mp))
+
+
+@pytest.mark.parametrize("distribution,alpha,eta", [("ggx", 0.3, 1.5), ("beckmann", 0.2, 1.33)])
+def test_roughdielectric_matches_mitsuba_from_both_sides(distribution, alpha, eta):
+    """Reflection and refraction, entering and leaving: eval and pdf equal Mitsuba's roughdielectric."""
+    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is the independent reference for the BSDF values")
+    mi.set_variant("scalar_rgb")
+    b = mi.load_dict({"type": "roughdielectric", "distribution": distribution, "alpha": alpha, "int_ior": eta,
+                      "ext_ior": 1.0})
+    t = _table(S.RoughDielectric(eta, 1.0, alpha_u=alpha, alpha_v=alpha, distribution=distribution))
+    rng = np.random.default_rng(5)
+    wi, wo = _dirs(rng, 200, upper=False), _dirs(rng, 200, upper=False)
+    v, p = R.eval_pdf(t, np.zeros(200, int), wi, wo)
+    ctx = mi.BSDFContext()
+    mv, mp = [], []
+    for a, c in zip(wi, wo, strict=True):
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(a)
+        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+        mv.append(list(b.eval(ctx, si, mi.Vector3f(c))))
+        mp.append(b.pdf(ctx, si, mi.Vector3f(c)))
+    assert (np.array(mp) > 0).sum() > 50 and ((wi[:, 2] * wo[:, 2]) < 0).sum() > 50
+    np.testing.assert_allclose(v, np.array(mv), rtol=1e-4, atol=1e-5 * np.max(mv))
+    np.testing.assert_allclose(p, np.array(mp), rtol=1e-4, atol=1e-5 * np.max(mp))

@@ -14,7 +14,8 @@ import numpy as np
 from ..scene import bsdfs as B
 from .mitsuba_tree import Node, Props, call
 
-BSDFS = ("diffuse", "dielectric", "conductor", "roughconductor", "plastic", "roughplastic", "twosided")
+BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic", "roughplastic",
+         "twosided")
 
 
 def _texture(builder, node, name: str):
@@ -36,9 +37,11 @@ def colour(builder, node, p: Props, name: str, default):
 
 
 def scalar(builder, node, p: Props, name: str, default):
-    """A number parameter that Mitsuba accepts as a texture (roughness alpha)."""
+    """A number parameter that Mitsuba accepts as a texture (roughness alpha, which Mitsuba's microfacet
+    distributions raise to at least 1e-4)."""
     _texture(builder, node, name)
-    return p.get(name, default, float)
+    x = p.get(name, default, float)
+    return max(x, 1e-4) if name.startswith("alpha") and x >= 0 else x
 
 
 @dataclass
@@ -101,28 +104,32 @@ def _bsdf(builder, node, depth: int):
     t = node.type
     if t not in BSDFS:
         raise node.error(f"unsupported bsdf '{t}' (durer renders {', '.join(BSDFS)})")
-    rough = t in ("roughconductor", "roughplastic")
+    rough = t in ("roughconductor", "roughplastic", "roughdielectric")
     if rough:
         dist = p.get("distribution", "beckmann", str)
-        if dist != "ggx":
-            raise node.error(f"{t}: only distribution 'ggx' is supported (Mitsuba's default is beckmann; "
-                             "set it explicitly)", p.where("distribution"))
+        if dist not in ("ggx", "beckmann"):
+            raise node.error(f"{t}: unknown distribution '{dist}' (use beckmann or ggx)", p.where("distribution"))
         if not p.get("sample_visible", True, bool):
             raise node.error(f"{t}: sample_visible must be true")
         alpha = scalar(builder, node, p, "alpha", 0.1)
     if t == "diffuse":
         out = call(node, B.Diffuse, colour(builder, node, p, "reflectance", 0.5))
-    elif t == "dielectric":
-        out = call(node, B.Dielectric, p.get("int_ior", 1.5046, "ior"), p.get("ext_ior", 1.000277, "ior"),
-                   colour(builder, node, p, "specular_reflectance", 1.0),
-                   colour(builder, node, p, "specular_transmittance", 1.0))
+    elif t in ("dielectric", "roughdielectric"):
+        args = (p.get("int_ior", 1.5046, "ior"), p.get("ext_ior", 1.000277, "ior"),
+                colour(builder, node, p, "specular_reflectance", 1.0),
+                colour(builder, node, p, "specular_transmittance", 1.0))
+        if rough:
+            out = call(node, B.RoughDielectric, *args, scalar(builder, node, p, "alpha_u", alpha),
+                       scalar(builder, node, p, "alpha_v", alpha), dist)
+        else:
+            out = call(node, B.Dielectric, *args)
     elif t in ("conductor", "roughconductor"):
         material = p.get("material", None, str)
         eta, k = colour(builder, node, p, "eta", None), colour(builder, node, p, "k", None)
         kw = dict(specular_reflectance=colour(builder, node, p, "specular_reflectance", 1.0))
         if t == "roughconductor":
             kw.update(alpha_u=scalar(builder, node, p, "alpha_u", alpha),
-                      alpha_v=scalar(builder, node, p, "alpha_v", alpha))
+                      alpha_v=scalar(builder, node, p, "alpha_v", alpha), distribution=dist)
         cls = B.RoughConductor if t == "roughconductor" else B.Conductor
         if material is not None and (eta is not None or k is not None):
             raise node.error(f"{t}: give either material or eta and k")
@@ -134,7 +141,7 @@ def _bsdf(builder, node, depth: int):
         args = (colour(builder, node, p, "diffuse_reflectance", 0.5),
                 colour(builder, node, p, "specular_reflectance", 1.0),
                 p.get("int_ior", 1.49, "ior"), p.get("ext_ior", 1.000277, "ior"), p.get("nonlinear", False, bool))
-        out = call(node, B.RoughPlastic, *args, alpha) if rough else call(node, B.Plastic, *args)
+        out = call(node, B.RoughPlastic, *args, alpha, dist) if rough else call(node, B.Plastic, *args)
     else:  # twosided
         if len(node.children) != 1:
             raise node.error("twosided needs exactly one nested bsdf (durer has no different back side)")

@@ -10,7 +10,7 @@ import os
 import numpy as np
 
 from ..scene import bsdfs as B
-from ..scene.cameras import PerspectiveCamera
+from ..scene.cameras import OrthographicCamera, PerspectiveCamera
 from ..scene.graph import Group, Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
 from .images import read_hdr
@@ -155,10 +155,12 @@ class Builder:
             raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in integrator '{t}'")
 
     def sensor(self, node) -> None:
-        if node.type != "perspective":
-            raise node.error(f"unsupported sensor '{node.type}' (durer reads 'perspective')")
+        if node.type not in ("perspective", "orthographic"):
+            raise node.error(f"unsupported sensor '{node.type}' (durer reads perspective and orthographic)")
         if self.camera is not None:
             raise node.error("durer renders one sensor per scene")
+        if node.type == "orthographic":
+            return self._orthographic(node)
         p = Props(node)
         fov = p.get("fov", None, float)
         axis = p.get("fov_axis", "x", str).lower()
@@ -181,16 +183,7 @@ class Builder:
         if axis not in ("x", "y", "diagonal", "smaller", "larger"):
             raise node.error(f"unknown fov_axis '{axis}'", p.where("fov_axis"))
         p.done()
-        width, height = 768, 576
-        for child in node.children:
-            child = self.resolve(child)
-            if child.tag == "film":
-                width, height = self.film(child)
-            elif child.tag == "sampler":
-                self.sampler(child)
-            else:
-                raise child.error(f"<{child.tag}> cannot appear in a sensor")
-        self.defaults["width"], self.defaults["height"] = width, height
+        width, height = self._sensor_children(node)
         aspect = width / height
         t = math.tan(math.radians(fov) / 2)
         tan_x = {"x": t, "y": t * aspect, "diagonal": t * width / math.hypot(width, height),
@@ -201,6 +194,40 @@ class Builder:
             raise node.error("the sensor's to_world mirrors the image (durer's cameras are right-handed)")
         cam = call(node, PerspectiveCamera, origin, direction, up, math.degrees(2 * math.atan(tan_long)))
         cam.t_min = near
+        self.camera = cam
+
+    def _sensor_children(self, node) -> tuple[int, int]:
+        """The sensor's film and sampler; the film's size."""
+        width, height = 768, 576
+        for child in node.children:
+            child = self.resolve(child)
+            if child.tag == "film":
+                width, height = self.film(child)
+            elif child.tag == "sampler":
+                self.sampler(child)
+            else:
+                raise child.error(f"<{child.tag}> cannot appear in a sensor")
+        self.defaults["width"], self.defaults["height"] = width, height
+        return width, height
+
+    def _orthographic(self, node) -> None:
+        """Mitsuba's orthographic sensor: camera-space x in [-1, 1] across the film (y in +-1/aspect), scaled and
+        placed by to_world; rays start near_clip in front of the camera plane."""
+        p = Props(node)
+        near = p.get("near_clip", 0.01, float)
+        p.get("far_clip", None, float)
+        m = p.get("to_world", np.eye(4), "matrix")
+        p.done()
+        width, height = self._sensor_children(node)
+        left, up, direction = m[:3, 0], m[:3, 1], m[:3, 2]
+        sx, sy = np.linalg.norm(left), np.linalg.norm(up)
+        if not (sx > 0 and sy > 0 and abs(sx - sy) <= 1e-9 * max(sx, sy)):
+            raise node.error("orthographic to_world must scale x and y alike (durer's pixels are square)")
+        if np.dot(np.cross(direction, up), -left) <= 0:
+            raise node.error("the sensor's to_world mirrors the image (durer's cameras are right-handed)")
+        size = 2 * sx if width >= height else 2 * sx * height / width
+        cam = call(node, OrthographicCamera, m[:3, 3], direction, up, size)
+        cam.t_min = near / float(np.linalg.norm(direction))
         self.camera = cam
 
     def film(self, node) -> tuple[int, int]:

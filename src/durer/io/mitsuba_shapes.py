@@ -136,7 +136,8 @@ def _mesh_file(builder, node, p: Props) -> TriangleMesh:
         uvs = None if uvs is None or len(uvs) != len(vertices) else np.array(uvs, dtype=np.float64)
         if uvs is not None and flip_uv and node.type == "obj":  # Mitsuba's obj reader: v -> 1 - v by default
             uvs[:, 1] = 1.0 - uvs[:, 1]
-        normals = None
+        # the file's vertex normals, else computed (angle-weighted) as Mitsuba does for files without them
+        normals = None if face_normals else np.asarray(mesh.vertex_normals, dtype=np.float64)
     if not len(faces):
         raise node.error(f"mesh {filename} has no triangles")
     return call(node, TriangleMesh, vertices, faces, source=path, uvs=uvs,

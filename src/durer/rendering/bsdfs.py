@@ -29,6 +29,7 @@ import numpy as np
 from ..kernels.path.bsdf import (
     AU,
     AV,
+    BECKMANN,
     BLACK,
     C1,
     C2,
@@ -48,6 +49,7 @@ from ..kernels.path.bsdf import (
     PHONG,
     PLASTIC,
     ROUGHCONDUCTOR,
+    ROUGHDIELECTRIC,
     ROUGHPLASTIC,
     SMOOTH,
     SPEC_WEIGHT,
@@ -56,7 +58,17 @@ from ..kernels.path.bsdf import (
     sample_kernel,
 )
 from ..kernels.path.microfacet import rough_albedo_kernel
-from ..scene.bsdfs import Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughPlastic, Surface, TwoSided
+from ..scene.bsdfs import (
+    Conductor,
+    Dielectric,
+    Diffuse,
+    Plastic,
+    RoughConductor,
+    RoughDielectric,
+    RoughPlastic,
+    Surface,
+    TwoSided,
+)
 from ..scene.materials import PhongMaterial
 
 ROUGH_RES = 64  # cos(theta) samples of the rough plastic's transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
@@ -79,6 +91,7 @@ class BSDFTable:
     eta: np.ndarray = field(default_factory=lambda: np.zeros(0))    # relative index int / ext; course index
     alpha_u: np.ndarray = field(default_factory=lambda: np.zeros(0))
     alpha_v: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    beckmann: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # rough BSDFs: Beckmann, not GGX
     exponent: np.ndarray = field(default_factory=lambda: np.zeros(0))
     spec_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))  # plastics: specular share of sampling
     fdr_int: np.ndarray = field(default_factory=lambda: np.zeros(0))      # plastics: internal diffuse reflectance
@@ -114,7 +127,8 @@ class BSDFTable:
                 P[:, col:col + 3] = colour.reshape(n, 3)
             for col, value in ((KIND, self.kind), (TWOSIDED, self.twosided), (NONLINEAR, self.nonlinear),
                                (FLIP, self.flip), (ETA, self.eta), (AU, self.alpha_u), (AV, self.alpha_v),
-                               (EXPONENT, self.exponent), (SPEC_WEIGHT, self.spec_weight), (FDR_INT, self.fdr_int)):
+                               (EXPONENT, self.exponent), (SPEC_WEIGHT, self.spec_weight), (FDR_INT, self.fdr_int),
+                               (BECKMANN, self.beckmann)):
                 P[:, col] = value
             smooth = ~np.isin(self.kind, (DIELECTRIC, CONDUCTOR, BLACK))
             phong = self.kind == PHONG
@@ -127,7 +141,7 @@ class BSDFTable:
 def _row(m) -> dict:
     r = dict(kind=BLACK, twosided=False, c1=np.zeros(3), c2=np.zeros(3), c3=np.zeros(3), c4=np.zeros(3), eta=1.0,
              alpha_u=0.1, alpha_v=0.1, exponent=1.0, spec_weight=0.0, fdr_int=0.0, nonlinear=False,
-             transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False)
+             transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False, beckmann=False)
     if isinstance(m, Surface):
         if m.radiance is not None:
             r["emission"] = m.radiance
@@ -145,12 +159,15 @@ def _row(m) -> dict:
                  exponent=m.exponent)
     elif isinstance(m, Diffuse):
         r.update(kind=DIFFUSE, c1=m.reflectance)
+    elif isinstance(m, RoughDielectric):
+        r.update(kind=ROUGHDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
+                 eta=m.int_ior / m.ext_ior, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")
     elif isinstance(m, Dielectric):
         r.update(kind=DIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance, eta=m.int_ior / m.ext_ior)
     elif isinstance(m, Conductor):
         r.update(kind=CONDUCTOR, c1=m.specular_reflectance, c3=m.eta, c4=m.k)
         if isinstance(m, RoughConductor):
-            r.update(kind=ROUGHCONDUCTOR, alpha_u=m.alpha_u, alpha_v=m.alpha_v)
+            r.update(kind=ROUGHCONDUCTOR, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")
     elif isinstance(m, Plastic):
         eta = m.int_ior / m.ext_ior
         d_mean, s_mean = m.diffuse_reflectance.mean(), m.specular_reflectance.mean()
@@ -158,9 +175,10 @@ def _row(m) -> dict:
                  spec_weight=s_mean / (d_mean + s_mean), fdr_int=fresnel_diffuse_reflectance(1.0 / eta))
         if isinstance(m, RoughPlastic):
             mu = np.maximum(1e-6, np.linspace(0.0, 1.0, ROUGH_RES))
-            r.update(kind=ROUGHPLASTIC, alpha_u=m.alpha, alpha_v=m.alpha,
-                     transmittance=_rough_albedo(mu, m.alpha, eta, transmit=True),
-                     fdr_int=2.0 * np.mean(_rough_albedo(mu, m.alpha, 1.0 / eta, transmit=False) * mu))
+            b = m.distribution == "beckmann"
+            r.update(kind=ROUGHPLASTIC, alpha_u=m.alpha, alpha_v=m.alpha, beckmann=b,
+                     transmittance=_rough_albedo(mu, m.alpha, eta, transmit=True, beckmann=b),
+                     fdr_int=2.0 * np.mean(_rough_albedo(mu, m.alpha, 1.0 / eta, transmit=False, beckmann=b) * mu))
     else:
         r["is_texture"] = True  # a solid texture: resolved per hit into the materials it blends
     return r
@@ -176,11 +194,13 @@ def fresnel_diffuse_reflectance(eta: float) -> float:
     return 0.919317 - 3.4793 * i + 6.75335 * i ** 2 - 7.80989 * i ** 3 + 4.98554 * i ** 4 - 1.36881 * i ** 5
 
 
-def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: int = 64) -> np.ndarray:
-    """Single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at cos(theta) = mu
-    (kernels/path/microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals)."""
+def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: int = 64,
+                  beckmann: bool = False) -> np.ndarray:
+    """Single-scattering reflectance (or transmittance) of a rough GGX (or Beckmann) dielectric interface at
+    cos(theta) = mu (kernels/path/microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals)."""
     out = np.empty(len(mu))
-    rough_albedo_kernel(np.ascontiguousarray(mu, dtype=np.float64), float(alpha), float(eta), bool(transmit), n, out)
+    rough_albedo_kernel(np.ascontiguousarray(mu, dtype=np.float64), float(alpha), float(eta), bool(transmit), n, out,
+                        np.bool_(beckmann))
     return out
 
 

@@ -51,7 +51,7 @@ class PathTracer:
         self._surfaces = tuple(np.ascontiguousarray(a) for a in (
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
-            flat.plane_material))
+            flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3))))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
         # every piece of shading in Numba: other accelerators, instances, solid textures and environment maps take
         # the unfused wavefront of closest_hit / any_hit queries
@@ -171,7 +171,7 @@ class PathTracer:
         o, d = np.ascontiguousarray(origins, dtype=np.float64).copy(), np.ascontiguousarray(normalize(directions))
         thr, eta = np.ones((n, 3)), np.ones(n)
         prev = np.column_stack([np.ones(n), np.ones(n), origins])  # pdf, delta flag, point of the last bounce
-        p, ng, slot_em = np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
+        p, ng, ns, slot_em = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
         shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
                                                              np.empty((n, 3)), np.empty(n, bool))
         sh_o, sh_d, sh_t = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -183,7 +183,7 @@ class PathTracer:
             # camera rays may be traced as image tiles (width 0: the accelerator looks); later rays are not an image
             hits = ctx.accel.closest_hit(o[:m], d[:m], t_min=tmin, width=0 if depth == 0 else -1)
             hit = hits.hit
-            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, slot_em)
+            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, ns, slot_em)
             if depth == 0:
                 first_t[idx], first_n[idx] = hits.t, ng[:m]
             last = 0 <= self.max_depth <= depth + 1
@@ -194,7 +194,7 @@ class PathTracer:
             env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
             if em.envmap is not None and not last:
                 env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
-            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, slot_em, slot,
+            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, ns, slot_em, slot,
                        (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
                        tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth,
                                                      self.features), L, aux,
@@ -275,6 +275,11 @@ class PathTracer:
 def prepare_path(ctx: RenderContext) -> None:
     """Build the path tracer's tables (BSDFs, emitters, surfaces, the tree to walk) once for a render."""
     ctx.prepared.setdefault("path", PathTracer(ctx))
+def _unit_corners(normals: np.ndarray) -> np.ndarray:
+    """(F, 3, 3) corner normals scaled to unit length (zero rows stay zero: flat triangles)."""
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3, 3)
+    length = np.linalg.norm(n, axis=2, keepdims=True)
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
 
 def path_trace(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_min: float,

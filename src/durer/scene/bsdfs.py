@@ -74,6 +74,12 @@ def _alpha(v) -> float:
     return x
 
 
+def _distribution(v) -> str:
+    if v not in ("ggx", "beckmann"):
+        raise ValueError(f"microfacet distribution must be 'ggx' or 'beckmann', got {v!r}")
+    return v
+
+
 def _albedo(v, what: str) -> np.ndarray:
     a = rgb(v, what)
     if a.min() < 0:
@@ -107,6 +113,21 @@ class Dielectric:
 
 
 @dataclass
+class RoughDielectric(Dielectric):
+    """Rough glass (Mitsuba's `roughdielectric`): GGX or Beckmann microfacets reflecting and refracting (Walter et
+    al. 2007), sampled from the visible normals."""
+
+    alpha_u: float = 0.1
+    alpha_v: float = 0.1
+    distribution: str = "ggx"
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
+        self.distribution = _distribution(self.distribution)
+
+
+@dataclass
 class Conductor:
     """A smooth metal mirror with the Fresnel reflectance of the complex index eta + i k (per RGB channel)."""
 
@@ -128,15 +149,17 @@ class Conductor:
 
 @dataclass
 class RoughConductor(Conductor):
-    """A rough metal: GGX microfacets (anisotropic with alpha_u != alpha_v), Smith shadowing, sampled from the
-    visible normals (Heitz 2018)."""
+    """A rough metal: GGX (or Beckmann, Mitsuba's default) microfacets, anisotropic with alpha_u != alpha_v, Smith
+    shadowing, sampled from the visible normals."""
 
     alpha_u: float = 0.1
     alpha_v: float = 0.1
+    distribution: str = "ggx"
 
     def __post_init__(self):
         super().__post_init__()
         self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
+        self.distribution = _distribution(self.distribution)
 
 
 @dataclass
@@ -158,13 +181,15 @@ class Plastic:
 
 @dataclass
 class RoughPlastic(Plastic):
-    """A diffuse base under a rough (GGX) dielectric coating (Mitsuba's `roughplastic`)."""
+    """A diffuse base under a rough (GGX or Beckmann) dielectric coating (Mitsuba's `roughplastic`)."""
 
     alpha: float = 0.1
+    distribution: str = "ggx"
 
     def __post_init__(self):
         super().__post_init__()
         self.alpha = _alpha(self.alpha)
+        self.distribution = _distribution(self.distribution)
 
 
 @dataclass
@@ -178,7 +203,7 @@ class TwoSided:
             raise ValueError(f"twosided cannot wrap a {type(self.bsdf).__name__}")
 
 
-BSDF = Diffuse | Dielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided
+BSDF = Diffuse | Dielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided
 
 
 @dataclass

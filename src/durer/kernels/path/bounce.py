@@ -5,7 +5,10 @@ drives it between the accelerator's closest-hit and any-hit queries and document
 work on one path, is also the shading of the fused bounce (kernels/path/wavefront.py).
 
 Random numbers come from the counter-based stream (kernels/path/qmc.py) keyed by (seed, pixel, sample, dimension), so
-every path's numbers depend only on the path: the result is the same whatever the thread count or work split."""
+every path's numbers depend only on the path: the result is the same whatever the thread count or work split.
+
+Numba's on-disk cache of shade_bounce is keyed on this file alone, not on the BSDF and emitter kernels it inlines:
+after a change there (the BSDF table gained its BECKMANN column), delete __pycache__ or touch this file."""
 
 from __future__ import annotations
 
@@ -35,12 +38,14 @@ def dim2(depth, k):
 
 
 @nb.njit(**JIT, inline="always")
-def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample, keys, pkeys, thr, eta, prev, bsdf,
+def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, row, sample, keys, pkeys, thr, eta, prev, bsdf,
                lights, env, scalars, L, aux):
     """Shade one path after its closest hit: the body of shade_bounce, shared with the fused bounce of
     kernels/path/wavefront.py (inlined into both).
 
-    ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, geometric normal and material slots (se as hit,
+    ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, normals = (geometric gx, gy, gz, shading sx, sy,
+    sz: the BSDF frame, side tests and emission use the shading normal, as Mitsuba's shading frame; the
+    solid-angle pdf of an emitter and the offsets of new rays the geometric one) and material slots (se as hit,
     s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped; j the
     path's row in L, sample, keys, pkeys; row its row in env; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y,
     z) its state. Adds found light to L[j]; with scalars[4] (features wanted) records the first non-specular hit's
@@ -48,6 +53,7 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
     origin, direction, t_max, contribution, and next ray: throughput (0: the path ended), origin, direction, prev,
     eta), each as scalars."""
     P, T = bsdf
+    gx, gy, gz, hx, hy, hz = normals
     K, _, F, _, _, _, tri_em, sph_em = lights
     depth, emit, last, rr_depth, want = scalars
     tint = aux[0]
@@ -67,7 +73,7 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
         if emit and se >= 0:
             sgn = -1.0 if P[se, FLIP] != 0 else 1.0
             nx, ny, nz = gx * sgn, gy * sgn, gz * sgn
-            if nx * dx + ny * dy + nz * dz < 0:
+            if hx * dx * sgn + hy * dy * sgn + hz * dz * sgn < 0:
                 le0, le1, le2 = P[se, EMISSION], P[se, EMISSION + 1], P[se, EMISSION + 2]
                 e = -1
                 if kind == TRIANGLE:
@@ -89,11 +95,11 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
         L[j, 1] += t1 * miss[1] * w
         L[j, 2] += t2 * miss[2] * w
     if seek:
-        seek = _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux) and not last
+        seek = _features_at(P, hit, s, hx, hy, hz, dx, dy, dz, j, aux) and not last
     if not hit or last or s < 0:
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
     sgn = -1.0 if P[s, FLIP] != 0 else 1.0
-    nx, ny, nz = gx * sgn, gy * sgn, gz * sgn
+    nx, ny, nz = hx * sgn, hy * sgn, hz * sgn
     ts, tt = frame3(nx, ny, nz)
     wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
     scale = 1e-7 * (1.0 + max(abs(px), abs(py), abs(pz)))
@@ -165,11 +171,11 @@ def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
 
 
 @nb.njit(**JIT)
-def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
+def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
                  aux, shadow, nxt, i0, i1):
     """Shade paths i0..i1 of a wavefront after its closest-hit query (shade_path on each).
 
-    o, d (n, 3) the rays; hit_* the Hits; ng (n, 3) geometric normals; slot_em the hit's material slot,
+    o, d (n, 3) the rays; hit_* the Hits; ng, ns (n, 3) geometric and shading normals; slot_em the hit's material slot,
     slot the same with solid textures resolved; path = (idx, sample, keys, pixel keys, thr (n,3), eta,
     prev (n, 5): pdf of the last BSDF sample, its delta flag, the point it left from); misses = (radiance (n,3),
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
@@ -186,7 +192,7 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
         k = hit_kind[i]
         ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
             (o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]), k != MISS, k, hit_prim[i], hit_t[i],
-            ng[i, 0], ng[i, 1], ng[i, 2], slot_em[i], slot[i],
+            (ng[i, 0], ng[i, 1], ng[i, 2], ns[i, 0], ns[i, 1], ns[i, 2]), slot_em[i], slot[i],
             (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], i, sample, keys, pkeys,
             (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
             bsdf, lights, env, scalars, L, aux)

@@ -14,14 +14,15 @@ import math
 import numba as nb
 
 from ..common import JIT
-from .microfacet import fresnel1, fresnel_conductor1, ggx_d1, ggx_g11, ggx_sample_visible1
+from .microfacet import d1, fresnel1, fresnel_conductor1, g11, sample_visible1
 from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
 
-DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK = range(8)
+DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK, ROUGHDIELECTRIC = range(9)
 # columns of the packed table: kind, flags, four colours (3 each), scalars, emission
 KIND, TWOSIDED, C1, C2, C3, C4, ETA, AU, AV, EXPONENT, SPEC_WEIGHT, FDR_INT, NONLINEAR, FLIP, EMISSION, SMOOTH = (
     0, 1, 2, 5, 8, 11, 14, 15, 16, 17, 18, 19, 20, 21, 22, 25)
-COLUMNS = 26
+BECKMANN = 26  # rough BSDFs: 1 for Beckmann microfacets, 0 for GGX
+COLUMNS = 27
 
 
 @nb.njit(**JIT, inline="always")
@@ -63,14 +64,15 @@ def _plastic_probs(P, T, s, wz):
 
 
 @nb.njit(**JIT)
-def _microfacet(wi, wo, au, av):
-    """GGX terms of a rough BSDF's eval: half vector, D, G1(wi), G and the clamped cos of wi."""
+def _microfacet(wi, wo, au, av, beck):
+    """Microfacet terms (GGX, or Beckmann where beck) of a rough BSDF's eval: half vector, D, G1(wi), G and the
+    clamped cos of wi."""
     hx, hy, hz = wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]
     ln = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-300)
     hx, hy, hz = hx / ln, hy / ln, hz / ln
-    d = ggx_d1(hx, hy, hz, au, av)
-    g1i = ggx_g11(wi[0], wi[1], wi[2], hx, hy, hz, au, av)
-    g = g1i * ggx_g11(wo[0], wo[1], wo[2], hx, hy, hz, au, av)
+    d = d1(hx, hy, hz, au, av, beck)
+    g1i = g11(wi[0], wi[1], wi[2], hx, hy, hz, au, av, beck)
+    g = g1i * g11(wo[0], wo[1], wo[2], hx, hy, hz, au, av, beck)
     return hx, hy, hz, d, g1i, g, max(wi[2], 1e-300)
 
 
@@ -95,13 +97,53 @@ def _diffuse_eval(P, s, wi, wo):
 @nb.njit(**JIT)
 def _roughconductor_eval(P, s, wi, wo):
     ok = wi[2] > 0 and wo[2] > 0
-    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, P[s, AU], P[s, AV])
+    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, P[s, AU], P[s, AV], P[s, BECKMANN] != 0)
     ch = wi[0] * hx + wi[1] * hy + wi[2] * hz
     m = d * g / (4.0 * cos_i) if ok else 0.0
     v0 = P[s, C1] * fresnel_conductor1(ch, P[s, C3], P[s, C4]) * m
     v1 = P[s, C1 + 1] * fresnel_conductor1(ch, P[s, C3 + 1], P[s, C4 + 1]) * m
     v2 = P[s, C1 + 2] * fresnel_conductor1(ch, P[s, C3 + 2], P[s, C4 + 2]) * m
     return v0, v1, v2, (d * g1i / (4.0 * cos_i) if ok else 0.0)
+
+
+@nb.njit(**JIT)
+def _roughdielectric_eval(P, s, wi, wo):
+    """Walter et al.'s rough glass as Mitsuba's roughdielectric: reflection F D G / (4 |cos_i|), refraction
+    (1 - F) |D G eta^2 (wi.m)(wo.m) / (cos_i (wi.m + eta wo.m)^2)| / eta^2 (radiance), from either side; the pdf of
+    sampling the visible normal seen from wi's side, then the lobe by F."""
+    ci, co = wi[2], wo[2]
+    if ci == 0 or co == 0:
+        return 0.0, 0.0, 0.0, 0.0
+    au, av, beck, eta_rel = P[s, AU], P[s, AV], P[s, BECKMANN] != 0, P[s, ETA]
+    reflect = ci * co > 0
+    eta = eta_rel if ci > 0 else 1.0 / eta_rel
+    k = 1.0 if reflect else eta
+    hx, hy, hz = wi[0] + wo[0] * k, wi[1] + wo[1] * k, wi[2] + wo[2] * k
+    ln = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if ln == 0:
+        return 0.0, 0.0, 0.0, 0.0
+    if hz < 0:
+        ln = -ln
+    hx, hy, hz = hx / ln, hy / ln, hz / ln
+    dwi = wi[0] * hx + wi[1] * hy + wi[2] * hz
+    dwo = wo[0] * hx + wo[1] * hy + wo[2] * hz
+    if dwi * ci <= 0 or dwo * co <= 0:
+        return 0.0, 0.0, 0.0, 0.0
+    d = d1(hx, hy, hz, au, av, beck)
+    g = g11(wi[0], wi[1], wi[2], hx, hy, hz, au, av, beck) * g11(wo[0], wo[1], wo[2], hx, hy, hz, au, av, beck)
+    f = fresnel1(dwi, eta_rel)[0]
+    sg = 1.0 if ci > 0 else -1.0
+    pm = d * g11(wi[0] * sg, wi[1] * sg, wi[2] * sg, hx, hy, hz, au, av, beck) * abs(dwi) / abs(ci)
+    if reflect:
+        v = f * d * g / (4.0 * abs(ci))
+        pdf = pm * f / (4.0 * abs(dwo))
+        c = C1
+    else:
+        denom = dwi + eta * dwo
+        v = (1.0 - f) * abs(d * g * dwi * dwo / (ci * denom * denom))
+        pdf = pm * (1.0 - f) * abs(eta * eta * dwo / (denom * denom))
+        c = C2
+    return P[s, c] * v, P[s, c + 1] * v, P[s, c + 2] * v, pdf
 
 
 @nb.njit(**JIT)
@@ -120,7 +162,7 @@ def _roughplastic_eval(P, T, s, wi, wo):
         return 0.0, 0.0, 0.0, 0.0
     c = wo[2]
     au, eta = P[s, AU], P[s, ETA]
-    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, au, au)
+    hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, au, au, P[s, BECKMANN] != 0)
     spec = fresnel1(wi[0] * hx + wi[1] * hy + wi[2] * hz, eta)[0] * d * g / (4.0 * cos_i)
     m = _transmittance(T, s, wi[2]) * _transmittance(T, s, wo[2]) * c / (math.pi * eta * eta)
     ps, pd = _plastic_probs(P, T, s, wi[2])
@@ -162,6 +204,8 @@ def bsdf_eval(P, T, s, wi, wo):
         return _roughplastic_eval(P, T, s, wi, wo)
     if k == PHONG:
         return _phong_eval(P, s, wi, wo)
+    if k == ROUGHDIELECTRIC:
+        return _roughdielectric_eval(P, s, wi, wo)
     return 0.0, 0.0, 0.0, 0.0  # dielectric, conductor (delta lobes only), black
 
 
@@ -197,16 +241,37 @@ def _conductor_sample(P, s, wi):
 @nb.njit(**JIT)
 def _roughconductor_sample(P, s, wi, u20, u21):
     wx, wy, wz = wi
-    au, av = P[s, AU], P[s, AV]
-    mx, my, mz = ggx_sample_visible1(wx, wy, wz, u20, u21, au, av)
+    au, av, beck = P[s, AU], P[s, AV], P[s, BECKMANN] != 0
+    mx, my, mz = sample_visible1(wx, wy, wz, u20, u21, au, av, beck)
     wo = _reflect(wx, wy, wz, mx, my, mz)
     ok = 1.0 if wz > 0 and wo[2] > 0 else 0.0
-    g = ggx_g11(wo[0], wo[1], wo[2], mx, my, mz, au, av) * ok
+    g = g11(wo[0], wo[1], wo[2], mx, my, mz, au, av, beck) * ok
     cm = wx * mx + wy * my + wz * mz
     pdf = _roughconductor_eval(P, s, wi, wo)[3]
     return (wo, (P[s, C1] * fresnel_conductor1(cm, P[s, C3], P[s, C4]) * g,
                  P[s, C1 + 1] * fresnel_conductor1(cm, P[s, C3 + 1], P[s, C4 + 1]) * g,
                  P[s, C1 + 2] * fresnel_conductor1(cm, P[s, C3 + 2], P[s, C4 + 2]) * g), pdf, False, 1.0)
+
+
+@nb.njit(**JIT)
+def _roughdielectric_sample(P, s, wi, u1, u20, u21):
+    """A visible normal seen from wi's side, then reflection with probability F, else refraction; weight = f cos /
+    pdf (zero where the picked lobe would leave on the wrong side, as in Mitsuba)."""
+    wx, wy, wz = wi
+    sg = 1.0 if wz >= 0 else -1.0
+    mx, my, mz = sample_visible1(wx * sg, wy * sg, wz * sg, u20, u21, P[s, AU], P[s, AV], P[s, BECKMANN] != 0)
+    dwi = wx * mx + wy * my + wz * mz
+    f, cos_t, eta_it, eta_ti = fresnel1(dwi, P[s, ETA])
+    if u1 <= f:
+        wo = _reflect(wx, wy, wz, mx, my, mz)
+        ok, eta = wo[2] * wz > 0, 1.0
+    else:
+        k = dwi * eta_ti + cos_t
+        wo = (k * mx - eta_ti * wx, k * my - eta_ti * wy, k * mz - eta_ti * wz)
+        ok, eta = wo[2] * wz < 0, eta_it
+    v0, v1, v2, pdf = _roughdielectric_eval(P, s, wi, wo)
+    m = 1.0 / pdf if ok and pdf > 0 else 0.0
+    return wo, (v0 * m, v1 * m, v2 * m), pdf, False, eta
 
 
 @nb.njit(**JIT)
@@ -229,9 +294,9 @@ def _roughplastic_sample(P, T, s, wi, u1, u20, u21):
     wx, wy, wz = wi
     ps = _plastic_probs(P, T, s, wz)[0]
     if u1 < ps:
-        au = P[s, AU]
-        mx, my, mz = (ggx_sample_visible1(wx, wy, wz, u20, u21, au, au) if wz > 0 else
-                      ggx_sample_visible1(0.0, 0.0, 1.0, u20, u21, au, au))
+        au, beck = P[s, AU], P[s, BECKMANN] != 0
+        mx, my, mz = (sample_visible1(wx, wy, wz, u20, u21, au, au, beck) if wz > 0 else
+                      sample_visible1(0.0, 0.0, 1.0, u20, u21, au, au, beck))
         wo = _reflect(wx, wy, wz, mx, my, mz)
     else:
         wo = cosine_hemisphere3(u20, u21)
@@ -296,6 +361,8 @@ def bsdf_sample(P, T, s, wi, u1, u20, u21):
         wo, w, pdf, delta, eta = _roughplastic_sample(P, T, s, wi, u1, u20, u21)
     elif k == PHONG:
         wo, w, pdf, delta, eta = _phong_sample(P, s, wi, u1, u20, u21)
+    elif k == ROUGHDIELECTRIC:
+        wo, w, pdf, delta, eta = _roughdielectric_sample(P, s, wi, u1, u20, u21)
     else:
         wo, w, pdf, delta, eta = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False, 1.0
     if flip:

@@ -1,5 +1,6 @@
-"""Scalar Fresnel and GGX terms of the path tracer's BSDF kernels (kernels/path/bsdf.py): dielectric and conductor
-Fresnel reflectance, the GGX distribution, Smith's masking and Heitz's visible-normal sampling."""
+"""Scalar Fresnel and microfacet terms of the path tracer's BSDF kernels (kernels/path/bsdf.py): dielectric and
+conductor Fresnel reflectance, the GGX distribution, Smith's masking and Heitz's visible-normal sampling, and the
+d1 / g11 / sample_visible1 that pick GGX or Beckmann (kernels/path/beckmann.py) by a flag."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import math
 import numba as nb
 
 from ..common import JIT
+from .beckmann import beckmann_d1, beckmann_g11, beckmann_sample_visible1
 
 
 @nb.njit(**JIT)
@@ -94,10 +96,30 @@ def ggx_sample_visible1(wx, wy, wz, u0, u1, au, av):
     return mx / ln, my / ln, mz / ln
 
 
+@nb.njit(**JIT, inline="always")
+def d1(mx, my, mz, au, av, beckmann):
+    """D(m) of GGX, or of Beckmann where `beckmann`."""
+    return beckmann_d1(mx, my, mz, au, av) if beckmann else ggx_d1(mx, my, mz, au, av)
+
+
+@nb.njit(**JIT, inline="always")
+def g11(vx, vy, vz, mx, my, mz, au, av, beckmann):
+    """Smith's G1(v, m) of GGX, or of Beckmann where `beckmann`."""
+    return beckmann_g11(vx, vy, vz, mx, my, mz, au, av) if beckmann else ggx_g11(vx, vy, vz, mx, my, mz, au, av)
+
+
 @nb.njit(**JIT)
-def rough_albedo_kernel(mu, alpha, eta, transmit, n, out):
-    """out[i]: single-scattering reflectance (or transmittance) of a rough GGX dielectric interface at
-    cos(theta) = mu[i], by the midpoint rule on n x n visible normals: E[F G1(wo)] (or E[(1 - F) G1(wo)] through
+def sample_visible1(wx, wy, wz, u0, u1, au, av, beckmann):
+    """A visible normal of GGX, or of Beckmann where `beckmann`."""
+    if beckmann:
+        return beckmann_sample_visible1(wx, wy, wz, u0, u1, au, av)
+    return ggx_sample_visible1(wx, wy, wz, u0, u1, au, av)
+
+
+@nb.njit(**JIT)
+def rough_albedo_kernel(mu, alpha, eta, transmit, n, out, beckmann=False):
+    """out[i]: single-scattering reflectance (or transmittance) of a rough GGX (or Beckmann) dielectric interface
+    at cos(theta) = mu[i], by the midpoint rule on n x n visible normals: E[F G1(wo)] (or E[(1 - F) G1(wo)] through
     refraction). The rough plastic's tables."""
     for i in range(mu.shape[0]):
         c = mu[i]
@@ -105,16 +127,16 @@ def rough_albedo_kernel(mu, alpha, eta, transmit, n, out):
         total = 0.0
         for a in range(n):
             for b in range(n):
-                mx, my, mz = ggx_sample_visible1(wx, 0.0, wz, (a + 0.5) / n, (b + 0.5) / n, alpha, alpha)
+                mx, my, mz = sample_visible1(wx, 0.0, wz, (a + 0.5) / n, (b + 0.5) / n, alpha, alpha, beckmann)
                 c_im = wx * mx + wz * mz
                 f, cos_t, _, eta_ti = fresnel1(c_im, eta)
                 if transmit:
                     k = eta_ti * c_im + cos_t
                     ox, oy, oz = k * mx - eta_ti * wx, k * my, k * mz - eta_ti * wz
                     if oz < 0:
-                        total += (1.0 - f) * ggx_g11(ox, oy, oz, mx, my, mz, alpha, alpha)
+                        total += (1.0 - f) * g11(ox, oy, oz, mx, my, mz, alpha, alpha, beckmann)
                 else:
                     ox, oy, oz = 2.0 * c_im * mx - wx, 2.0 * c_im * my, 2.0 * c_im * mz - wz
                     if oz > 0:
-                        total += f * ggx_g11(ox, oy, oz, mx, my, mz, alpha, alpha)
+                        total += f * g11(ox, oy, oz, mx, my, mz, alpha, alpha, beckmann)
         out[i] = total / (n * n)

@@ -1,5 +1,7 @@
-"""What a closest hit means for the surface, one pass over the hits: the hit point, the geometric normal (unit,
-as the surface defines it, not flipped to the ray) and the material slot. The same definitions as
+"""What a closest hit means for the surface, one pass over the hits: the hit point, the geometric normal and the
+shading normal (unit, as the surface defines them, not flipped to the ray; the shading normal is the geometric one,
+or on a mesh with vertex normals their barycentric interpolation at the hit, as Mitsuba shades) and the material
+slot. The same definitions as
 accel/hits.geometric_normals and hit_materials, fused for the path tracer, on a scene without instances
 (CompiledScene.flat)."""
 
@@ -13,9 +15,12 @@ from ..common import JIT, PLANE, SPHERE, TRIANGLE
 
 
 @nb.njit(**JIT, inline="always")
-def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat):
-    """The unit geometric normal and material slot at point p of a hit of kind k on primitive j: (nx, ny, nz,
-    slot), (0, 0, 0, -1) on a miss. Inlined into hit_surfaces and the path tracer's fused bounce."""
+def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat,
+               tri_n):
+    """The unit geometric and shading normals and the material slot at point p of a hit of kind k on primitive j:
+    (gx, gy, gz, sx, sy, sz, slot), zeros and -1 on a miss. tri_n (F, 3, 3): unit world vertex normals of each
+    triangle's corners (zero rows: the triangle is flat; fewer rows than triangles, e.g. none: every triangle is
+    flat). Inlined into hit_surfaces and the path tracer's fused bounce."""
     nx = ny = nz = 0.0
     s = -1
     if k == TRIANGLE:
@@ -23,6 +28,23 @@ def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_
         bx, by, bz = tris[j, 2, 0] - tris[j, 0, 0], tris[j, 2, 1] - tris[j, 0, 1], tris[j, 2, 2] - tris[j, 0, 2]
         nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
         s = tri_mat[j]
+        ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if ln > 0:
+            nx, ny, nz = nx / ln, ny / ln, nz / ln
+        if j < tri_n.shape[0] and (tri_n[j, 0, 0] != 0 or tri_n[j, 0, 1] != 0 or tri_n[j, 0, 2] != 0):
+            qx, qy, qz = px - tris[j, 0, 0], py - tris[j, 0, 1], pz - tris[j, 0, 2]
+            d11, d12, d22 = ax * ax + ay * ay + az * az, ax * bx + ay * by + az * bz, bx * bx + by * by + bz * bz
+            q1, q2 = qx * ax + qy * ay + qz * az, qx * bx + qy * by + qz * bz
+            det = d11 * d22 - d12 * d12
+            if det > 0:
+                b1, b2 = (d22 * q1 - d12 * q2) / det, (d11 * q2 - d12 * q1) / det
+                b0 = 1.0 - b1 - b2
+                sx = b0 * tri_n[j, 0, 0] + b1 * tri_n[j, 1, 0] + b2 * tri_n[j, 2, 0]
+                sy = b0 * tri_n[j, 0, 1] + b1 * tri_n[j, 1, 1] + b2 * tri_n[j, 2, 1]
+                sz = b0 * tri_n[j, 0, 2] + b1 * tri_n[j, 1, 2] + b2 * tri_n[j, 2, 2]
+                ls = math.sqrt(sx * sx + sy * sy + sz * sz)
+                if ls > 1e-12:
+                    return nx, ny, nz, sx / ls, sy / ls, sz / ls, s
     elif k == SPHERE:
         qx = w2o[j, 0, 0] * px + w2o[j, 0, 1] * py + w2o[j, 0, 2] * pz + w2o[j, 0, 3] - center[j, 0]
         qy = w2o[j, 1, 0] * px + w2o[j, 1, 1] * py + w2o[j, 1, 2] * pz + w2o[j, 1, 3] - center[j, 1]
@@ -38,19 +60,22 @@ def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_
     ln = math.sqrt(nx * nx + ny * ny + nz * nz)
     if ln > 0:
         nx, ny, nz = nx / ln, ny / ln, nz / ln
-    return nx, ny, nz, s
+    return nx, ny, nz, nx, ny, nz, s
 
 
 @nb.njit(**JIT)
 def hit_surfaces(o, d, t, kind, prim, tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat,
-                 p, ng, slot, i0, i1):
-    """p = o + t d (o on a miss), ng and slot (-1, normal 0 on a miss) of hits i0..i1. tris (F, 3, 3) world
-    triangles; spheres: world-to-object (S, 3, 4), object centre (S, 3), normal matrix (S, 3, 3); planes' unit
-    normals; the *_mat arrays their material slots."""
+                 tri_n, p, ng, ns, slot, i0, i1):
+    """p = o + t d (o on a miss), ng and ns (geometric and shading normals) and slot (-1, normals 0 on a miss) of
+    hits i0..i1. tris
+    (F, 3, 3) world triangles; spheres: world-to-object (S, 3, 4), object centre (S, 3), normal matrix (S, 3, 3);
+    planes' unit normals; the *_mat arrays their material slots; tri_n the triangles' vertex normals (surface_at)."""
     for i in range(i0, i1):
         k = kind[i]
         h = t[i] if k == TRIANGLE or k == SPHERE or k == PLANE else 0.0
         px, py, pz = o[i, 0] + h * d[i, 0], o[i, 1] + h * d[i, 1], o[i, 2] + h * d[i, 2]
         p[i, 0], p[i, 1], p[i, 2] = px, py, pz
-        ng[i, 0], ng[i, 1], ng[i, 2], slot[i] = surface_at(px, py, pz, k, prim[i], tris, tri_mat, w2o, center,
-                                                           normal_matrix, sph_mat, plane_normal, plane_mat)
+        gx, gy, gz, sx, sy, sz, slot[i] = surface_at(px, py, pz, k, prim[i], tris, tri_mat, w2o, center,
+                                                     normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
+        ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
+        ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
