@@ -10,6 +10,7 @@ screenshot of the page there (how docs/images/preview.png is made).
 from __future__ import annotations
 
 import io
+import json
 import os
 import shutil
 from pathlib import Path
@@ -192,10 +193,13 @@ def test_mitsuba_scene_refines_progressively_to_durer_render(browser):
     expected = encode_srgb(durer.render(durer.load(CORNELL), *size, **PATH).color)
     srv = _serve(CORNELL, *size, PATH)
     pg = browser.new_page()
+    received = []  # every frame message the page receives (a drawn frame may be skipped for a newer one)
+    pg.on("websocket", lambda ws: ws.on("framereceived", lambda payload: received.append(payload)))
     try:
         pg.set_default_timeout(WAIT_MS)
         pg.goto(srv.url)
         _wait_final(pg)
+        received.clear()
         pg.evaluate("""() => { window.seen = []; const i = document.getElementById('image');
             new MutationObserver(() => { if (i.dataset.level !== undefined)
                 window.seen.push([+i.dataset.level, +i.dataset.samples, i.dataset.final]); })
@@ -205,7 +209,9 @@ def test_mitsuba_scene_refines_progressively_to_durer_render(browser):
         seen = pg.evaluate("window.seen")  # [level, spp, final] of each frame drawn (a frame may be skipped
         samples = [s for _, s, _ in seen]   # when a newer one arrives while it decodes)
         assert samples == sorted(samples) and seen[-1][1:] == [8, "1"]
-        assert any(1 < s < 8 for s in samples), f"no intermediate refinement drawn: {seen}"
+        frames = [m for m in (json.loads(r) for r in received if isinstance(r, str)) if m.get("type") == "frame"]
+        sent = [m["samples"] for m in frames if m["level"] >= 3]  # the full-size levels after the coarse ones
+        assert any(1 < s < 8 for s in sent), f"no intermediate refinement sent: {sent}"
         shown = np.array(pg.evaluate("""() => { const c = document.getElementById('image');
             return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data); }"""), np.uint8)
         diff = np.abs(shown.reshape(size[1], size[0], 4)[:, :, :3].astype(int) - expected.astype(int))
