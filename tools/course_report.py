@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-COURSE = Path(__file__).resolve().parents[2] / "shared" / "scenes" / "mit6837"
+COURSE = Path(os.environ.get("DURER_SHARED", Path(__file__).resolve().parents[2] / "shared")) / "scenes" / "mit6837"
 OUTPUT_FLAGS = {"-output": 0, "-normals": 0, "-depth": 2, "-render_samples": 0, "-render_filter": 0}
 
 
