@@ -78,5 +78,5 @@ def test_every_flag_the_readme_names_exists(flag):
     from durer.cli import COMMANDS
 
     helps = "".join(parser().format_help() for _, parser in COMMANDS.values())
-    pip_or_pytest = {"--markdown", "--assignments", "--only", "--samples"}
+    pip_or_pytest = {"--markdown", "--assignments", "--only", "--samples", "--picture"}  # tools' and benchmarks' flags
     assert flag in helps or flag in pip_or_pytest, flag
