@@ -53,6 +53,7 @@ def test_without_a_cluster_the_local_scheduler_gives_the_same(scene, data):
                                   scene.compute_distance(points.astype(np.float32), keep_float32=True))
 
 
+@pytest.mark.slow
 def test_cluster_results_equal_local_ones(scene, client, data):
     points, rays = data
     p = da.from_array(points, chunks=(10, 25, 3))

@@ -15,6 +15,7 @@ from PIL import Image
 NOTEBOOK = REPO / "examples" / "notebook.ipynb"
 
 
+@pytest.mark.slow
 def test_notebook_runs_and_shows_images(monkeypatch):
     nbformat = pytest.importorskip("nbformat", reason="the notebook test needs nbformat (the 'test' extra)")
     nbclient = pytest.importorskip("nbclient", reason="the notebook test needs nbclient (the 'test' extra)")

@@ -20,6 +20,8 @@ from hypothesis import strategies as st
 import durer
 from durer.cli import main
 
+pytestmark = pytest.mark.slow  # hundreds of mutated inputs
+
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
 COURSE_SCENES = [EXAMPLES / "spheres.txt", EXAMPLES / "fisheye.txt", EXAMPLES / "panorama.txt"]

@@ -148,6 +148,7 @@ def mutated(draw) -> str:
 @example('<scene>' + CAM + '<shape type="cube"><transform name="to_world"><rotate x="1" angle="1e400"/>'
          '<scale value="1e300"/><scale value="1e300"/></transform></shape></scene>')
 @example('<scene><bsdf type="twosided" id="a"><ref id="a"/></bsdf></scene>')
+@pytest.mark.slow
 def test_mutated_scenes_load_or_raise_one_scene_error(text):
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / "s.xml"

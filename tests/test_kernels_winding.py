@@ -82,6 +82,7 @@ def test_an_open_hemisphere_gives_the_solid_angle_of_its_rim():
 
 
 @needs_meshes
+@pytest.mark.slow
 def test_the_bunny_holes_degrade_smoothly():
     """The Stanford bunny (Stanford Computer Graphics Laboratory) is open at its base and wound clockwise:
     |w| is 1 deep inside, 0 far outside, and changes continuously (no jumps) along a line through a hole."""

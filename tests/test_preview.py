@@ -20,6 +20,7 @@ pytest.importorskip("ipykernel", reason="ipykernel is not installed")
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "spheres.txt"
 
 
+@pytest.mark.slow
 def test_notebook_shows_the_preview_in_a_frame():
     cells = [
         f"import durer\nhandle = durer.preview({str(EXAMPLE)!r}, 32, 24, shadows=True)\nhandle",

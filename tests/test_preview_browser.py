@@ -34,6 +34,8 @@ from durer.preview.session import PreviewSession  # noqa: E402
 from durer.rendering.explain import explain  # noqa: E402
 from durer.rendering.renderer import make_options  # noqa: E402
 
+pytestmark = pytest.mark.slow  # a real browser: seconds each
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "spheres.txt"
 W, H = 96, 64
 OPTIONS = dict(shadows=True, bounces=3)

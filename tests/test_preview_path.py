@@ -108,6 +108,7 @@ def test_a_failing_render_is_one_line_for_every_page_until_a_render_works(monkey
         session.stop()
 
 
+@pytest.mark.slow
 def test_the_command_takes_the_scenes_film_integrator_and_samples():
     """`durer preview examples/cornell_box.xml` starts as `durer render` would: 256x256, path tracer, 64 spp."""
     proc = subprocess.Popen([sys.executable, "-m", "durer", "preview", str(CORNELL), "--port", "0", "--no-browser"],

@@ -110,6 +110,7 @@ def test_an_unbuilt_scene_is_built_before_pickling():
         RaycastingScene().__setstate__({"version": 99})
 
 
+@pytest.mark.slow
 def test_spawned_processes_give_the_same_answers(scene, expected):
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(_worker, [pickle.dumps(scene)] * 2)
@@ -133,6 +134,7 @@ def test_forked_processes_give_the_same_answers(scene, expected, monkeypatch):
         _assert_same(r, expected)
 
 
+@pytest.mark.slow
 def test_a_dataset_holding_the_scene_works_in_a_spawned_worker(scene):
     data = PointDataset(scene, POINTS, batch=64)
     local = _load_all(data)

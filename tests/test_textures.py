@@ -180,6 +180,7 @@ GOLDEN = [  # (assignment, command line after `raytracer`, fraction of pixels wi
 
 
 @needs_course
+@pytest.mark.slow
 @pytest.mark.parametrize("assignment,line,required", GOLDEN, ids=[g[1].split()[1] for g in GOLDEN])
 def test_course_texture_scene(assignment, line, required, tmp_path):
     from course_report import CourseLine, compare, run_line
@@ -195,6 +196,7 @@ def test_course_texture_scene(assignment, line, required, tmp_path):
 
 
 @needs_course
+@pytest.mark.slow
 def test_course_logo_a6_reference_has_the_checker_materials_swapped(tmp_path):
     """output6_18a and output7_04a come from the same scene file but differ: the A6 reference shows the
     Checkerboard's two Wood materials exchanged (output7_04a, output6_13 and output7_02 agree with durer's parity).

@@ -163,6 +163,7 @@ def test_plan_bounds_a_unit_and_its_halo(samples, radius, side, per_pass):
     assert not radius or got >= 32 * radius
 
 
+@pytest.mark.slow
 def test_peak_allocation_is_flat_in_samples_and_within_the_check():
     """Measured with tracemalloc (NumPy reports its buffers to it): 64 samples per pixel allocate at their peak
     what 16 do (the units are at their size bound either way), far below the 64 x 200 bytes a pixel the whole

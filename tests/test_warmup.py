@@ -16,6 +16,7 @@ def test_unknown_groups_are_refused_by_name():
         warmup.warm_up(["points", "nope"])
 
 
+@pytest.mark.slow
 def test_a_group_runs_in_a_child_process_and_leaves_the_kernels_cached():
     seconds = warmup.warm_up(["points"], processes=1, quiet=True)
     assert seconds > 0
@@ -28,6 +29,7 @@ def test_a_group_runs_in_a_child_process_and_leaves_the_kernels_cached():
     assert [line for line in lines if "data saved" in line] == []  # ... and none had to be compiled
 
 
+@pytest.mark.slow
 def test_every_group_covers_the_public_api_without_errors():
     warmup.run_groups(["course", "path"])  # in this process: the kernels the rest of the suite needs anyway
 
