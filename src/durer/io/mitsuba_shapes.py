@@ -128,7 +128,10 @@ def _mesh_file(builder, node, p: Props) -> TriangleMesh:
         import trimesh
 
         try:
-            mesh = trimesh.load(path, file_type=node.type, force="mesh", process=False)
+            # one mesh keeps the file's vertex normals; force="mesh" (files of several objects) recomputes them
+            mesh = trimesh.load(path, file_type=node.type, process=False)
+            if not isinstance(mesh, trimesh.Trimesh):
+                mesh = trimesh.load(path, file_type=node.type, force="mesh", process=False)
         except Exception as e:  # trimesh raises many types on malformed files
             raise node.error(f"cannot read mesh {filename}: {e}") from None
         vertices, faces = np.asarray(getattr(mesh, "vertices", ())), np.asarray(getattr(mesh, "faces", ()))
