@@ -16,6 +16,7 @@ import numba as nb
 from ..common import JIT, MISS, SPHERE, TRIANGLE
 from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
+from .envmap import envmap_eval, envmap_pdf, has_map
 from .qmc import sobol2, uniform1
 from .warps import frame3, power_heuristic1, to_local3, to_world3
 
@@ -35,16 +36,17 @@ def dim2(depth, k):
 
 
 @nb.njit(**JIT, inline="always")
-def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample, keys, pkeys, thr, eta, prev, bsdf,
-               lights, env, scalars, L):
+def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, sample, keys, pkeys, thr, eta, prev, bsdf, lights,
+               env, scalars, L):
     """Shade one path after its closest hit: the body of shade_bounce, shared with the fused bounce of
     kernels/path/wavefront.py (inlined into both).
 
     ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, geometric normal and material slots (se as hit,
-    s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped; j the
-    path's row in L, sample, keys, pkeys; row its row in env; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y,
-    z) its state. Adds found light to L[j]; returns (shadow ray: valid, origin, direction, t_max, contribution, and
-    next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
+    s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped (with an
+    environment map, an emitter's radiance and pdf are the map's, looked up here); j the path's row in L, sample,
+    keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found light to L[j];
+    returns (shadow ray: valid, origin, direction, t_max, contribution, and next ray: throughput (0: the path
+    ended), origin, direction, prev, eta), each as scalars."""
     P, T = bsdf
     K, _, F, _, _, _, tri_em, sph_em = lights
     depth, emit, last, rr_depth = scalars
@@ -78,12 +80,17 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
                 L[j, 1] += t1 * le1 * w
                 L[j, 2] += t2 * le2 * w
     elif emit:
+        le0, le1, le2, pdf_l = miss[0], miss[1], miss[2], miss[3]
+        if miss[4] and has_map(env):
+            le0, le1, le2 = envmap_eval(env, dx, dy, dz)
+            if prev[1] == 0:
+                pdf_l = envmap_pdf(env, dx, dy, dz) / count
         w = 1.0
         if prev[1] == 0 and miss[4]:
-            w = power_heuristic1(prev[0], miss[3])
-        L[j, 0] += t0 * miss[0] * w
-        L[j, 1] += t1 * miss[1] * w
-        L[j, 2] += t2 * miss[2] * w
+            w = power_heuristic1(prev[0], pdf_l)
+        L[j, 0] += t0 * le0 * w
+        L[j, 1] += t1 * le1 * w
+        L[j, 2] += t2 * le2 * w
     if not hit or last or s < 0:
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
     sgn = -1.0 if P[s, FLIP] != 0 else 1.0
@@ -94,7 +101,7 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, row, sample,
     # --- next-event estimation (light sampling's share of MIS)
     if count and P[s, SMOOTH] != 0:
         u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 0))
-        ld, ldist, lw, lpdf = pick_sample(lights, env, row, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
+        ld, ldist, lw, lpdf = pick_sample(lights, env, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
         wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
         f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
         mis = power_heuristic1(lpdf, bpdf)
@@ -139,8 +146,8 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
     slot the same with solid textures resolved; path = (idx, sample, keys, pixel keys, thr (n,3), eta,
     prev (n, 5): pdf of the last BSDF sample, its delta flag, the point it left from); misses = (radiance (n,3),
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
-    radiance, params, triangles, normals, cdf, triangle -> emitter, sphere -> emitter); env = environment-map
-    draws (directions, pdfs, weights) per path; scalars = (depth, emit, last, rr_depth).
+    radiance, params, triangles, normals, cdf, triangle -> emitter, sphere -> emitter); env = the environment
+    map's tables (kernels/path/envmap.py; empty without one); scalars = (depth, emit, last, rr_depth).
     Adds found light to L[idx]; writes each path's shadow ray: shadow = (origin, direction, t_max, contribution,
     valid), and its next ray: nxt = (origin, direction, prev as above, throughput (0: the path ended), eta)."""
     idx, sample, keys, pkeys, thr, eta, prev = path
@@ -152,7 +159,7 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, slot_em, slot, path, misse
         ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
             (o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]), k != MISS, k, hit_prim[i], hit_t[i],
             ng[i, 0], ng[i, 1], ng[i, 2], slot_em[i], slot[i],
-            (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], i, sample, keys, pkeys,
+            (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], sample, keys, pkeys,
             (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
             bsdf, lights, env, scalars, L)
         shadow_ok[i] = ok
