@@ -16,7 +16,7 @@ import numba as nb
 from ..common import JIT, MISS, SPHERE, TRIANGLE
 from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
-from .envmap import envmap_eval, envmap_pdf, has_map
+from .envmap import envmap_eval_pdf, has_map
 from .qmc import sobol2, uniform1
 from .warps import frame3, power_heuristic1, to_local3, to_world3
 
@@ -82,9 +82,9 @@ def shade_path(ray, hit, kind, prim, t, gx, gy, gz, se, s, miss, j, sample, keys
     elif emit:
         le0, le1, le2, pdf_l = miss[0], miss[1], miss[2], miss[3]
         if miss[4] and has_map(env):
-            le0, le1, le2 = envmap_eval(env, dx, dy, dz)
-            if prev[1] == 0:
-                pdf_l = envmap_pdf(env, dx, dy, dz) / count
+            le, pdf_l = envmap_eval_pdf(env, dx, dy, dz)
+            le0, le1, le2 = le
+            pdf_l /= count
         w = 1.0
         if prev[1] == 0 and miss[4]:
             w = power_heuristic1(prev[0], pdf_l)

@@ -38,34 +38,56 @@ def _texel_xy(env, dx, dy, dz):
     return x, math.acos(min(max(vy, -1.0), 1.0)) / math.pi * (h - 1)
 
 
-@nb.njit(**JIT)
-def envmap_eval(env, dx, dy, dz):
-    """Radiance (r, g, b) arriving from direction d (pointing away from the scene): the bilinear lookup."""
-    grid = env[0]
+@nb.njit(**JIT, inline="always")
+def _bilinear(grid, x, y):
+    """The image's radiance (r, g, b) at texel coordinates (x, y): bilinear between the four texels around."""
     h, w = grid.shape[0], grid.shape[1] - 1
-    x, y = _texel_xy(env, dx, dy, dz)
     i, j = min(int(x), w - 1), min(int(y), h - 2)
     fx, fy = x - i, y - j
-    out = [0.0, 0.0, 0.0]
-    for c in range(3):
-        top = (1 - fx) * grid[j, i, c] + fx * grid[j, i + 1, c]
-        bottom = (1 - fx) * grid[j + 1, i, c] + fx * grid[j + 1, i + 1, c]
-        out[c] = (1 - fy) * top + fy * bottom
-    return out[0], out[1], out[2]
+    return _lerp(grid, i, j, fx, fy, 0), _lerp(grid, i, j, fx, fy, 1), _lerp(grid, i, j, fx, fy, 2)
 
 
-@nb.njit(**JIT)
-def envmap_pdf(env, dx, dy, dz):
-    """Density per solid angle with which envmap_sample picks direction d: the cell's probability spread over
-    the cell's solid angle (sin(theta) of the direction itself)."""
-    grid, cell_pdf = env[0], env[1]
-    h, w = grid.shape[0], grid.shape[1] - 1
-    x, y = _texel_xy(env, dx, dy, dz)
-    i, j = min(int(x), w - 1), min(int(y), h - 2)
+@nb.njit(**JIT, inline="always")
+def _lerp(grid, i, j, fx, fy, c):
+    """Channel c between texels (i, j) and (i + 1, j + 1) (no list: the fused bounce runs without NRT)."""
+    top = (1 - fx) * grid[j, i, c] + fx * grid[j, i + 1, c]
+    bottom = (1 - fx) * grid[j + 1, i, c] + fx * grid[j + 1, i + 1, c]
+    return (1 - fy) * top + fy * bottom
+
+
+@nb.njit(**JIT, inline="always")
+def _density(cell_pdf, i, j, y):
+    """Density per solid angle in cell (i, j) at texel row coordinate y: the cell's probability spread over its
+    (theta, phi) rectangle, divided by sin(theta) of the point itself (0 at the poles)."""
+    h, w = cell_pdf.shape[0] + 1, cell_pdf.shape[1]
     s = math.sin(y / (h - 1) * math.pi)
     if not s > 0:
         return 0.0
     return cell_pdf[j, i] * w * (h - 1) / (2 * math.pi * math.pi * max(s, 1e-300))
+
+
+@nb.njit(**JIT)
+def envmap_eval(env, dx, dy, dz):
+    """Radiance (r, g, b) arriving from direction d (pointing away from the scene): the bilinear lookup."""
+    x, y = _texel_xy(env, dx, dy, dz)
+    return _bilinear(env[0], x, y)
+
+
+@nb.njit(**JIT)
+def envmap_pdf(env, dx, dy, dz):
+    """Density per solid angle with which envmap_sample picks direction d."""
+    grid = env[0]
+    x, y = _texel_xy(env, dx, dy, dz)
+    return _density(env[1], min(int(x), grid.shape[1] - 2), min(int(y), grid.shape[0] - 2), y)
+
+
+@nb.njit(**JIT)
+def envmap_eval_pdf(env, dx, dy, dz):
+    """envmap_eval and envmap_pdf of direction d with one mapping to texel coordinates: ((r, g, b), pdf)."""
+    grid = env[0]
+    x, y = _texel_xy(env, dx, dy, dz)
+    pdf = _density(env[1], min(int(x), grid.shape[1] - 2), min(int(y), grid.shape[0] - 2), y)
+    return _bilinear(grid, x, y), pdf
 
 
 @nb.njit(**JIT, inline="always")
@@ -86,7 +108,8 @@ def _last_at_most(cdf, n, u):
 def envmap_sample(env, u0, u1):
     """A direction drawn with density envmap_pdf from (u0, u1) in [0, 1)^2: the row by u0, the cell in it by u1,
     then uniformly in the cell's (theta, phi) rectangle. Returns (direction, radiance / pdf (0 where the pdf is
-    0), pdf)."""
+    0), pdf), radiance and pdf taken at the sampled texel coordinates (envmap_eval and envmap_pdf of the direction
+    up to rounding, without mapping it back)."""
     grid, row_cdf, col_cdf, to_world = env[0], env[2], env[3], env[5]
     h, w = grid.shape[0], grid.shape[1] - 1
     j = _last_at_most(row_cdf, h - 1, u0)
@@ -101,13 +124,13 @@ def envmap_sample(env, u0, u1):
     dy = to_world[1, 0] * lx + to_world[1, 1] * ly + to_world[1, 2] * lz
     dz = to_world[2, 0] * lx + to_world[2, 1] * ly + to_world[2, 2] * lz
     ln = math.sqrt(dx * dx + dy * dy + dz * dz)
-    dx, dy, dz = dx / ln, dy / ln, dz / ln
-    pdf = envmap_pdf(env, dx, dy, dz)
+    # radiance and pdf at (x, y) itself, the texel coordinates the direction maps back to (up to rounding)
+    pdf = _density(env[1], i, j, y)
     if not pdf > 0:
-        return (dx, dy, dz), (0.0, 0.0, 0.0), pdf
-    r, g, b = envmap_eval(env, dx, dy, dz)
+        return (dx / ln, dy / ln, dz / ln), (0.0, 0.0, 0.0), pdf
+    r, g, b = _bilinear(grid, x, y)
     m = 1.0 / max(pdf, 1e-300)
-    return (dx, dy, dz), (r * m, g * m, b * m), pdf
+    return (dx / ln, dy / ln, dz / ln), (r * m, g * m, b * m), pdf
 
 
 @nb.njit(**JIT)
