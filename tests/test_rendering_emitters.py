@@ -111,7 +111,8 @@ def test_environment_map_sampling_is_a_density_and_matches_its_pdf():
     total = (light.pdf(grid) * np.sin(tt).ravel()).sum() * (np.pi / 60) * (2 * np.pi / 128)
     assert total == pytest.approx(1.0, rel=1e-9)
     s, pdf = light.sample(rng.random((N, 2)))
-    np.testing.assert_allclose(light.pdf(s), pdf, rtol=1e-9)
+    # the sampler's pdf is taken at its texel coordinates, pdf() maps the direction back (acos rounds near the poles)
+    np.testing.assert_allclose(light.pdf(s), pdf, rtol=1e-7)
     # importance sampling and uniform sampling estimate the same irradiance-like integral of L over the sphere
     by_pdf = (light.eval(s) / pdf[:, None]).mean(axis=0)
     uniform = (light.eval(d) * 4 * np.pi).mean(axis=0)

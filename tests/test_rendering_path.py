@@ -86,9 +86,16 @@ def test_same_image_whatever_threads_and_batch(monkeypatch):
 def test_fused_bounce_gives_the_unfused_image(monkeypatch, tmp_path):
     """The one-kernel bounce (kernels/path/wavefront.py) against the wavefront of accelerator queries and passes it
     replaces: the same image, depth and normals to the bit, over point, directional, constant and area emitters,
-    glass, rough and smooth BSDFs, spheres and (course scene) planes and a background colour."""
+    an environment map (alone, and picked beside a point light), glass, rough and smooth BSDFs, spheres and (course
+    scene) planes and a background colour."""
     (tmp_path / "mixed.xml").write_text(MIXED)
-    scenes = [durer.load(tmp_path / "mixed.xml"), durer.load(EXAMPLES / "caustic.xml")]
+    np.save(tmp_path / "sky.npy", sky())
+    env = ENVMAP.replace("sky.exr", "sky.npy")
+    (tmp_path / "env.xml").write_text(env)
+    point = '<emitter type="point"><point name="position" x="1" y="3" z="1"/><rgb name="intensity" value="4"/></emitter>'
+    (tmp_path / "env_point.xml").write_text(env.replace("</scene>", point + "</scene>"))
+    scenes = [durer.load(tmp_path / name) for name in ("mixed.xml", "env.xml", "env_point.xml")]
+    scenes.append(durer.load(EXAMPLES / "caustic.xml"))
     course = COURSE / "assignment4" / "scene4_04_reflective_sphere.txt"
     if course.is_file():
         scenes.append(durer.load(course))
@@ -199,18 +206,22 @@ ENVMAP = """<scene version="3.0.0">
 """
 
 
+def sky(h: int = 32, w: int = 64) -> np.ndarray:
+    """An HDR sky (float32 (h, w, 3)) with a small sun."""
+    v, u = (np.arange(h)[:, None] + 0.5) / h, (np.arange(w)[None, :] + 0.5) / w
+    img = np.zeros((h, w, 3), np.float32)
+    img[..., 0], img[..., 1], img[..., 2] = 0.3 + 0.5 * u, 0.4 * (1 - v), 0.8 * (1 - v) + 0.1
+    img[5:8, 40:44] = [40, 35, 30]
+    return img
+
+
 def test_environment_map_against_mitsuba(tmp_path):
     """An HDR sky with a small sun (EXR), rotated: the sky seen directly matches Mitsuba's lookups pixel for pixel,
     and the lit image's mean is within 0.5%."""
     mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 renders the reference image")
     exr = pytest.importorskip("OpenEXR", reason="the environment map is an EXR file")
     mi.set_variant("scalar_rgb")
-    h, w = 32, 64
-    v, u = (np.arange(h)[:, None] + 0.5) / h, (np.arange(w)[None, :] + 0.5) / w
-    sky = np.zeros((h, w, 3), np.float32)
-    sky[..., 0], sky[..., 1], sky[..., 2] = 0.3 + 0.5 * u, 0.4 * (1 - v), 0.8 * (1 - v) + 0.1
-    sky[5:8, 40:44] = [40, 35, 30]
-    with exr.File({"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage}, {"RGB": sky}) as f:
+    with exr.File({"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage}, {"RGB": sky()}) as f:
         f.write(str(tmp_path / "sky.exr"))
     (tmp_path / "env.xml").write_text(ENVMAP)
     ref = np.array(mi.render(mi.load_file(str(tmp_path / "env.xml")), spp=1024))

@@ -44,7 +44,7 @@ from ..kernels.path.emitters import (
 from ..scene.graph import Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
 from .bsdfs import BSDFTable
-from .envmap import EnvMapLight
+from .envmap import EnvMapLight, no_envmap
 
 
 @dataclass
@@ -60,16 +60,11 @@ class Emitters:
     envmap: EnvMapLight | None = None                       # or an environment map
     environment_id: int = -1
     _packed: tuple | None = None
+    _env: tuple | None = None
 
     @property
     def has_environment(self) -> bool:
         return self.environment_id >= 0
-
-    def environment_radiance(self, d: np.ndarray) -> np.ndarray:
-        """Radiance (N,3) of the environment seen along directions d (N,3)."""
-        if self.envmap is not None:
-            return self.envmap.eval(d)
-        return np.tile(self.environment, (len(d), 1))
 
     @property
     def count(self) -> int:
@@ -157,14 +152,11 @@ class Emitters:
                 np.concatenate(cdf), self.triangle_emitter, self.sphere_emitter))
         return self._packed
 
-    def envmap_draws(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The environment map's light samples for (N,2) numbers u: directions, pdfs, radiance / pdf (the kernels
-        take them as arrays; empty without a map)."""
-        if self.envmap is None:
-            return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3))
-        d, pdf = self.envmap.sample(u)
-        w = self.envmap.eval(d) / np.maximum(pdf, 1e-300)[:, None]
-        return np.ascontiguousarray(d), pdf, np.ascontiguousarray(np.where((pdf > 0)[:, None], w, 0.0))
+    def env_tables(self) -> tuple[np.ndarray, ...]:
+        """The environment map's tables as kernels/path/envmap.py takes them (empty without a map)."""
+        if self._env is None:
+            self._env = self.envmap.tables if self.envmap is not None else no_envmap()
+        return self._env
 
     def sample(self, p: np.ndarray, u_pick: np.ndarray, u: np.ndarray):
         """Next-event estimation from points p (N,3), an emitter picked uniformly: returns unit directions (N,3),
@@ -175,7 +167,7 @@ class Emitters:
         if self.count and n:
             u = np.ascontiguousarray(u, dtype=np.float64)
             sample_lights_kernel(np.ascontiguousarray(p, dtype=np.float64), np.asarray(u_pick, dtype=np.float64),
-                                 u, self.pack(), self.envmap_draws(u), d, dist, w, pdf)
+                                 u, self.pack(), self.env_tables(), d, dist, w, pdf)
         return d, dist, w, pdf
 
     def pdf_hit(self, em: np.ndarray, p_prev: np.ndarray, y: np.ndarray, normal: np.ndarray) -> np.ndarray:
@@ -190,12 +182,6 @@ class Emitters:
             sel = np.flatnonzero(em == self.environment_id)
             out[sel] = self.envmap.pdf(y[sel] - p_prev[sel]) / self.count
         return out
-
-    def miss_pdf(self, d: np.ndarray) -> np.ndarray:
-        """The pdf (N,) with which light sampling picks the environment directions d (N,3) of escaping rays."""
-        if self.envmap is not None:
-            return self.envmap.pdf(d) / self.count
-        return np.full(len(d), 1.0 / (4.0 * np.pi * self.count))
 
 
 def _world_sphere(cs: CompiledScene, k: int) -> tuple[np.ndarray, float]:

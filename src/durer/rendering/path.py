@@ -6,7 +6,7 @@ by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths
 bounce of all live paths of a batch at a time, with no Python loop over rays. When the accelerator offers a
 one-level tree to walk (Accelerator.kernel_tree: the default BVH without instances) a bounce is one Numba kernel
 (kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path); otherwise (other
-accelerators, instances, solid textures, environment maps) it is one closest_hit and one any_hit query on the
+accelerators, instances, solid textures) it is one closest_hit and one any_hit query on the
 scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces (kernels/path/surface.py)
 and one for the shading (kernels/path/bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray).
 Both give the same numbers to the bit. Random numbers come from the counter-based stream of sampling.py /
@@ -21,14 +21,14 @@ import threading
 import numpy as np
 
 from ..kernels.common import TRIANGLE
-from ..kernels.path.bounce import add_unblocked, dim1, dim2, shade_bounce
+from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
 from .bsdfs import BSDFTable
 from .context import RenderContext, SampleResult
 from .emitters import Emitters
-from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, sobol_pair, uniform
+from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, uniform
 from .texturing import leaf_weights
 
 BATCH = 1 << 16        # each thread's wavefront buffers hold this many paths at least (integrators.PATH_BATCH)
@@ -53,9 +53,9 @@ class PathTracer:
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
             flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3))))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
-        # every piece of shading in Numba: other accelerators, instances, solid textures and environment maps take
-        # the unfused wavefront of closest_hit / any_hit queries
-        numba_shading = not self.table.is_texture.any() and self.emitters.envmap is None
+        # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators,
+        # instances and solid textures take the unfused wavefront of closest_hit / any_hit queries
+        numba_shading = not self.table.is_texture.any()
         self._bvh = ctx.accel.kernel_tree() if numba_shading else None
         self._fused = self._bvh is not None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
@@ -90,8 +90,7 @@ class PathTracer:
                     np.ascontiguousarray(directions, dtype=np.float64), (o, d, thr, eta, prev), path[1:],
                     (L, first_t, first_n), aux)
         live = np.arange(n)
-        bsdf, lights = self.table.packed(), self.emitters.pack()
-        env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
+        bsdf, lights, env = self.table.packed(), self.emitters.pack(), self.emitters.env_tables()
         depth, tmin, work = 0, float(t_min), scratch(self._bvh[-1])
         while len(live) and depth < MAX_BOUNCES:
             last = 0 <= self.max_depth <= depth + 1
@@ -138,12 +137,15 @@ class PathTracer:
         return tuple(b[:n] for b in buffers)
 
     def _miss_constants(self, depth: int) -> tuple[float, float, float, float, bool]:
-        """What _misses gives every escaping ray when there is no environment map: (radiance r, g, b, light pdf,
-        is an emitter) of the constant environment, or of the background for camera rays of a course scene."""
+        """What _misses gives every escaping ray: (radiance r, g, b, light pdf, is an emitter) of the constant
+        environment, or of the background for camera rays of a course scene; an environment map is an emitter whose
+        radiance and pdf the kernel looks up."""
         em = self.emitters
         if depth == 0 and self.background is not None:
             r, g, b = (float(c) for c in self.background)
             return r, g, b, 0.0, False
+        if em.envmap is not None:
+            return 0.0, 0.0, 0.0, 0.0, True
         if em.has_environment:
             r, g, b = (float(c) for c in em.environment)
             return r, g, b, 1.0 / (4.0 * np.pi * em.count), True
@@ -191,13 +193,10 @@ class PathTracer:
             if tb.is_texture.any() and not last:
                 slot = self._resolve_textures(slot_em[:m], hit, p[:m], uniform(keys[idx], dim1(depth, 3)),
                                               hits.kind, hits.prim)
-            env = (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
-            if em.envmap is not None and not last:
-                env = em.envmap_draws(sobol_pair(pkeys[idx], sample_index[idx], dim2(depth, 0)))
             run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, ns, slot_em, slot,
                        (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
-                       tb.packed(), em.pack(), env, (depth, depth > 0 or not self.hide, last, self.rr_depth,
-                                                     self.features), L, aux,
+                       tb.packed(), em.pack(), em.env_tables(), (depth, depth > 0 or not self.hide, last,
+                                                                 self.rr_depth, self.features), L, aux,
                        (shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok), (nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta))
             shaded = L[idx] if record is not None else None  # (a copy) the light found before the shadow rays
             q = np.flatnonzero(shadow_ok[:m])  # none on the last bounce (shade_path casts none there)
@@ -230,13 +229,15 @@ class PathTracer:
 
     def _misses(self, d: np.ndarray, hit: np.ndarray, depth: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Radiance (N,3) seen by the rays that escape, its light-sampling pdf (N,) and whether it is an emitter
-        (N,) (for MIS): the environment, or a course scene's background colour for camera rays."""
+        (N,) (for MIS): the constant environment, or a course scene's background colour for camera rays; an
+        environment map is an emitter whose radiance and pdf the kernel looks up (as _miss_constants)."""
         n, em = len(d), self.emitters
         radiance, pdf, is_emitter = np.zeros((n, 3)), np.zeros(n), np.zeros(n, bool)
         miss = np.flatnonzero(~hit)
         if len(miss) and em.has_environment:
-            radiance[miss] = em.environment_radiance(d[miss])
-            pdf[miss] = em.miss_pdf(d[miss])
+            if em.envmap is None:
+                radiance[miss] = em.environment
+                pdf[miss] = 1.0 / (4.0 * np.pi * em.count)
             is_emitter[miss] = True
         if len(miss) and depth == 0 and self.background is not None:
             radiance[miss] = self.background

@@ -19,6 +19,7 @@ import numba as nb
 from ..common import JIT, MISS, SPHERE, TRIANGLE
 from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_albedo, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
+from .envmap import envmap_eval_pdf, has_map
 from .qmc import sobol2, uniform1
 from .warps import frame3, power_heuristic1, to_local3, to_world3
 
@@ -38,20 +39,20 @@ def dim2(depth, k):
 
 
 @nb.njit(**JIT, inline="always")
-def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, row, sample, keys, pkeys, thr, eta, prev, bsdf,
-               lights, env, scalars, L, aux):
+def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, pkeys, thr, eta, prev, bsdf, lights,
+               env, scalars, L, aux):
     """Shade one path after its closest hit: the body of shade_bounce, shared with the fused bounce of
     kernels/path/wavefront.py (inlined into both).
 
     ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, normals = (geometric gx, gy, gz, shading sx, sy,
     sz: the BSDF frame, side tests and emission use the shading normal, as Mitsuba's shading frame; the
     solid-angle pdf of an emitter and the offsets of new rays the geometric one) and material slots (se as hit,
-    s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped; j the
-    path's row in L, sample, keys, pkeys; row its row in env; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y,
-    z) its state. Adds found light to L[j]; with scalars[4] (features wanted) records the first non-specular hit's
-    albedo and normal in aux = (tint, albedo, normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid,
-    origin, direction, t_max, contribution, and next ray: throughput (0: the path ended), origin, direction, prev,
-    eta), each as scalars."""
+    s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped (with an
+    environment map, an emitter's radiance and pdf are the map's, looked up here); j the path's row in L, sample,
+    keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found light to L[j]; with
+    scalars[4] (features wanted) records the first non-specular hit's albedo and normal in aux = (tint, albedo,
+    normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid, origin, direction, t_max, contribution, and
+    next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
     P, T = bsdf
     gx, gy, gz, hx, hy, hz = normals
     K, _, F, _, _, _, tri_em, sph_em = lights
@@ -88,12 +89,17 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, row, sample, ke
                 L[j, 1] += t1 * le1 * w
                 L[j, 2] += t2 * le2 * w
     elif emit:
+        le0, le1, le2, pdf_l = miss[0], miss[1], miss[2], miss[3]
+        if miss[4] and has_map(env):
+            le, pdf_l = envmap_eval_pdf(env, dx, dy, dz)
+            le0, le1, le2 = le
+            pdf_l /= count
         w = 1.0
         if prev[1] == 0 and miss[4]:
-            w = power_heuristic1(prev[0], miss[3])
-        L[j, 0] += t0 * miss[0] * w
-        L[j, 1] += t1 * miss[1] * w
-        L[j, 2] += t2 * miss[2] * w
+            w = power_heuristic1(prev[0], pdf_l)
+        L[j, 0] += t0 * le0 * w
+        L[j, 1] += t1 * le1 * w
+        L[j, 2] += t2 * le2 * w
     if seek:
         seek = _features_at(P, hit, s, hx, hy, hz, dx, dy, dz, j, aux) and not last
     if not hit or last or s < 0:
@@ -106,7 +112,7 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, row, sample, ke
     # --- next-event estimation (light sampling's share of MIS)
     if count and P[s, SMOOTH] != 0:
         u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 0))
-        ld, ldist, lw, lpdf = pick_sample(lights, env, row, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
+        ld, ldist, lw, lpdf = pick_sample(lights, env, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
         wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
         f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
         mis = power_heuristic1(lpdf, bpdf)
@@ -179,11 +185,11 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, slot_em, slot, path, m
     slot the same with solid textures resolved; path = (idx, sample, keys, pixel keys, thr (n,3), eta,
     prev (n, 5): pdf of the last BSDF sample, its delta flag, the point it left from); misses = (radiance (n,3),
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
-    radiance, params, triangles, normals, cdf, triangle -> emitter, sphere -> emitter); env = environment-map
-    draws (directions, pdfs, weights) per path; scalars = (depth, emit, last, rr_depth, features wanted).
-    Adds found light to L[idx] (and features to aux's rows idx, as shade_path); writes each path's shadow ray:
-    shadow = (origin, direction, t_max, contribution, valid), and its next ray: nxt = (origin, direction, prev as
-    above, throughput (0: the path ended), eta)."""
+    radiance, params, triangles, normals, cdf, triangle -> emitter, sphere -> emitter); env = the environment
+    map's tables (kernels/path/envmap.py; empty without one); scalars = (depth, emit, last, rr_depth, features
+    wanted). Adds found light to L[idx] (and features to aux's rows idx, as shade_path); writes each path's shadow
+    ray: shadow = (origin, direction, t_max, contribution, valid), and its next ray: nxt = (origin, direction, prev
+    as above, throughput (0: the path ended), eta)."""
     idx, sample, keys, pkeys, thr, eta, prev = path
     miss_le, miss_pdf, miss_em = misses
     shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = shadow
@@ -193,7 +199,7 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, slot_em, slot, path, m
         ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
             (o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]), k != MISS, k, hit_prim[i], hit_t[i],
             (ng[i, 0], ng[i, 1], ng[i, 2], ns[i, 0], ns[i, 1], ns[i, 2]), slot_em[i], slot[i],
-            (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], i, sample, keys, pkeys,
+            (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], sample, keys, pkeys,
             (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
             bsdf, lights, env, scalars, L, aux)
         shadow_ok[i] = ok

@@ -1,8 +1,8 @@
 """The path tracer's emitters as scalar Numba functions: next-event sampling of one emitter from a point, and the
 pdf with which that sampling would have chosen a point found by a BSDF-sampled ray. Emitters are packed by
 rendering/emitters.py (which documents the models): per emitter a kind, a radiance and a row of parameters; the
-triangles of mesh emitters are concatenated with one area cdf per emitter. An environment map is sampled in NumPy
-before the kernels run (its draws arrive as arrays)."""
+triangles of mesh emitters are concatenated with one area cdf per emitter. An environment map is sampled by
+kernels/path/envmap.py over its tables (`env`)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import math
 import numba as nb
 
 from ..common import JIT
+from .envmap import envmap_sample
 from .warps import frame3, to_world3, uniform_cone3, uniform_cone_pdf, uniform_sphere3
 
 AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP = range(6)
@@ -48,9 +49,9 @@ def _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1):
 
 
 @nb.njit(**JIT, inline="always")
-def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env_d, env_pdf, env_w, row, e, px, py, pz, u0, u1):
+def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, e, px, py, pz, u0, u1):
     """Sample emitter e from point p: (unit direction, distance (inf at infinity), radiance / pdf (0 where the
-    sample is invalid), solid-angle pdf (inf for delta lights)). `row` indexes the NumPy environment-map draws."""
+    sample is invalid), solid-angle pdf (inf for delta lights)). env: the environment map's tables."""
     k = K[e]
     if k == POINT:
         tx, ty, tz = F[e, POSITION] - px, F[e, POSITION + 1] - py, F[e, POSITION + 2] - pz
@@ -61,8 +62,8 @@ def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env_d, env_pdf, env_w, row, e
         return ((-F[e, DIRECTION], -F[e, DIRECTION + 1], -F[e, DIRECTION + 2]), math.inf,
                 (R[e, 0], R[e, 1], R[e, 2]), math.inf)
     if k == ENVMAP:
-        return ((env_d[row, 0], env_d[row, 1], env_d[row, 2]), math.inf,
-                (env_w[row, 0], env_w[row, 1], env_w[row, 2]), env_pdf[row])
+        d, w, pdf = envmap_sample(env, u0, u1)
+        return d, math.inf, w, pdf
     if k == ENVIRONMENT:
         s = 4.0 * math.pi
         return uniform_sphere3(u0, u1), math.inf, (R[e, 0] * s, R[e, 1] * s, R[e, 2] * s), 1.0 / s
@@ -108,7 +109,7 @@ def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env_d, env_pdf, env_w, row, e
 @nb.njit(**JIT)
 def emitter_pdf(K, F, e, px, py, pz, yx, yy, yz, nx, ny, nz):
     """Solid-angle pdf with which emitter_sample(e) from p would have chosen the point y (emitting normal n) of an
-    area emitter; the constant environment's for directions. (Environment maps: rendering/envmap.py.)"""
+    area emitter; the constant environment's for directions. (Environment maps: kernels/path/envmap.py.)"""
     k = K[e]
     if k == ENVIRONMENT:
         return 1.0 / (4.0 * math.pi)
@@ -128,16 +129,14 @@ def emitter_pdf(K, F, e, px, py, pz, yx, yy, yz, nx, ny, nz):
 
 
 @nb.njit(**JIT, inline="always")
-def pick_sample(lights, env, row, u_pick, u0, u1, px, py, pz):
+def pick_sample(lights, env, u_pick, u0, u1, px, py, pz):
     """Next-event estimation from p: an emitter picked uniformly by u_pick, then sampled by (u0, u1); the weight
     and pdf include the pick (weight times the count, finite pdfs divided by it). lights and env as in
     kernels/path/bounce.shade_bounce."""
     K, R, F, tri_v, tri_n, tri_cdf, _, _ = lights
-    env_d, env_pdf, env_w = env
     count = K.shape[0]
     e = min(int(u_pick * count), count - 1)
-    d, dist, w, pdf = emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env_d, env_pdf, env_w, row, e, px, py, pz,
-                                     u0, u1)
+    d, dist, w, pdf = emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, e, px, py, pz, u0, u1)
     if not math.isinf(pdf):
         pdf /= count
     return d, dist, (w[0] * count, w[1] * count, w[2] * count), pdf
@@ -147,8 +146,7 @@ def pick_sample(lights, env, row, u_pick, u0, u1, px, py, pz):
 def sample_lights_kernel(p, u_pick, u, lights, env, d, dist, w, pdf):
     """pick_sample for every point p[i] (NumPy arrays in, outputs written in place)."""
     for i in range(p.shape[0]):
-        di, dist[i], wi, pdf[i] = pick_sample(lights, env, i, u_pick[i], u[i, 0], u[i, 1], p[i, 0], p[i, 1],
-                                              p[i, 2])
+        di, dist[i], wi, pdf[i] = pick_sample(lights, env, u_pick[i], u[i, 0], u[i, 1], p[i, 0], p[i, 1], p[i, 2])
         d[i, 0], d[i, 1], d[i, 2] = di
         w[i, 0], w[i, 1], w[i, 2] = wi
 

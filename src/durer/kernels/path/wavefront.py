@@ -86,8 +86,7 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
         first_t[i] = t
         first_n[i, 0], first_n[i, 1], first_n[i, 2] = gx, gy, gz
     ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
-        (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, (gx, gy, gz, sx, sy, sz), s, s, miss, i, i, sample, keys,
-        pkeys,
+        (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, (gx, gy, gz, sx, sy, sz), s, s, miss, i, sample, keys, pkeys,
         (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
         bsdf, lights, env, scalars, L, aux)
     if ok:
