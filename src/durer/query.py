@@ -382,7 +382,7 @@ class RaycastingScene:
         * method="parity": Open3D's rule, the parity of one ray's crossings (a majority vote of `nsamples`
           rays; each leaves the point away from the scene's middle, tilted by a fixed direction per sample).
           Several times faster than the winding number; right for closed, non-self-intersecting meshes, but a
-          ray through a hole flips the sign, and a ray exactly through an edge counts both triangles.
+          ray through a hole flips the sign.
         """
         p, lead, ft = self._points(query_points)
         with threads(nthreads):

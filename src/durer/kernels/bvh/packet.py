@@ -168,9 +168,10 @@ def packet_constants(rr, kx0, ky0, kz0):
 
 @nb.njit(**JIT, inline="always")
 def _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, rr):
-    """Whether any of the packet's rays passes the watertight test's edge test of the triangle (the sheared
-    vertices' edge functions share a sign, as in _packet_leaf, to the bit): most triangles of a leaf miss every
-    ray of a 4 x 4 tile, and this loop (no division, no stores) lets _packet_leaf skip them."""
+    """Whether any of the packet's rays may pass the watertight test's edge test of the triangle (the sheared
+    vertices' edge functions, computed as in _packet_leaf to the bit, do not have mixed signs: a superset of the
+    rays _packet_leaf accepts, which also settles ties by edge_sign): most triangles of a leaf miss every ray of a
+    4 x 4 tile, and this loop (no division, no stores) lets _packet_leaf skip them."""
     inside = 0
     for k in range(PACKET):
         okx, oky, okz = rr[_OKX + k], rr[_OKY + k], rr[_OKZ + k]
@@ -228,8 +229,11 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                 det = e0 + e1 + e2
                 t = sz * (e0 * az + e1 * bz + e2 * cz) / det
                 best = rr[_BEST + k]
-                ok = ((det != 0.0) & (rr[_TMIN + k] < t) & (t < best)
-                      & ~(((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0))))
+                # intersect.edge_sign of each edge, branch-free: the one-ray test's decision, ties included
+                s0 = (e0 > 0.0) | ((e0 == 0.0) & ((cy > by) | ((cy == by) & (cx < bx))))
+                s1 = (e1 > 0.0) | ((e1 == 0.0) & ((ay > cy) | ((ay == cy) & (ax < cx))))
+                s2 = (e2 > 0.0) | ((e2 == 0.0) & ((by > ay) | ((by == ay) & (bx < ax))))
+                ok = (det != 0.0) & (rr[_TMIN + k] < t) & (t < best) & (s0 == s1) & (s1 == s2)
                 if any_mode:
                     rr[_BEST + k] = -np.inf if ok else best
                 else:
