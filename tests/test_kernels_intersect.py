@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from durer.kernels.intersect import intersect_triangle
 from durer.query import RaycastingScene
@@ -134,3 +136,27 @@ def test_watertight_packets_aimed_along_edges_and_at_vertices():
     t = scene.cast_rays(origins, directions)["t_hit"]
     assert np.isfinite(t).all()
     np.testing.assert_allclose(t, 1.0, atol=0.02)  # the targets lie on the mesh, at t = 1
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_axis_rays_from_inside_an_integer_hull_cross_once(seed):
+    """Random convex hulls of integer points (consistently wound), rays along the 6 axis directions from integer
+    points strictly inside: the rays run along the hull's integer grid, so many pass exactly through its edges
+    and vertices (edge functions of exactly 0), and each must cross the closed surface exactly once; the same
+    lines from outside, through the inside point, cross exactly twice."""
+    rng = np.random.default_rng(seed)
+    hull = trimesh.convex.convex_hull(rng.integers(-6, 7, (12, 3)).astype(float))
+    if hull.volume < 1.0:
+        return
+    s = RaycastingScene()
+    s.add_triangles(hull.vertices, hull.faces)
+    grid = np.stack(np.meshgrid(*[np.arange(-6.0, 7.0)] * 3), -1).reshape(-1, 3)
+    inside = grid[np.abs(s.compute_winding_number(grid)) > 0.999]
+    inside = inside[s.compute_distance(inside) > 1e-9]
+    axes = np.concatenate([np.eye(3), -np.eye(3)])
+    o = np.repeat(inside, 6, axis=0)
+    d = np.tile(axes, (len(inside), 1))
+    assert (s.count_intersections(o, d) == 1).all()
+    assert np.isfinite(s.cast_rays(o, d)["t_hit"]).all()
+    assert (s.count_intersections(o - 20 * d, d) == 2).all()
