@@ -51,6 +51,7 @@ def best(f, k: int = 5) -> float:
 def main() -> None:
     mesh = trimesh.load(MESH, force="mesh", process=False)
     rays = durer.RaycastingScene.create_rays_pinhole(40, (-0.02, 0.1, 0), (-0.02, 0.1, 0.4), (0, 1, 0), 512, 512)
+    rays = np.asarray(rays, dtype=np.float64)  # float64 rays as before Open3D's float32 pinhole (issue 22)
     o = np.ascontiguousarray(rays[..., :3].reshape(-1, 3))
     d = np.ascontiguousarray(rays[..., 3:].reshape(-1, 3))
     camera = durer.PerspectiveCamera(center=(0, 0, 1), direction=(0, 0, -1), up=(0, 1, 0), angle=40)

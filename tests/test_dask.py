@@ -46,11 +46,10 @@ def test_without_a_cluster_the_local_scheduler_gives_the_same(scene, data):
     """Runs before the cluster fixture starts (pytest keeps file order), so no distributed client is active."""
     points, _ = data
     assert durer_dask.scatter(scene) is scene
-    lazy = durer_dask.compute_distance(scene, da.from_array(points.astype(np.float32), chunks=(20, 50, 3)),
-                                       keep_float32=True)
-    assert lazy.dtype == np.float32
+    lazy = durer_dask.compute_distance(scene, da.from_array(points.astype(np.float32), chunks=(20, 50, 3)))
+    assert lazy.dtype == np.float32  # float32 points, float32 distances (Open3D's types)
     np.testing.assert_array_equal(lazy.compute(scheduler="threads"),
-                                  scene.compute_distance(points.astype(np.float32), keep_float32=True))
+                                  scene.compute_distance(points.astype(np.float32)))
 
 
 @pytest.mark.slow

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from durer.kernels.intersect import intersect_triangle
 from durer.query import RaycastingScene
@@ -34,18 +36,66 @@ def test_misses_outside_edge_on_and_degenerate():
     assert intersect_triangle(0.5, 0.5, 1.0, 0.0, 0.0, -1.0, flat, 0.0, np.inf)[0] == np.inf
 
 
-def test_ray_through_shared_edge_hits_both_triangles():
-    """A quad split along its diagonal: rays exactly on the diagonal hit both halves, never neither."""
+@pytest.mark.parametrize("flip", [False, True])
+@pytest.mark.parametrize("below", [False, True])
+def test_ray_through_shared_edge_hits_exactly_one_triangle(flip, below):
+    """A quad split along its diagonal, either winding, rays from either side: a ray on the diagonal (exactly, in
+    the test's sheared frame, or after rounding) hits exactly one half, never both and never neither. (The
+    diagonal's end points are on the quad's border: a ray there may miss both, as it may pass beside an open
+    mesh.)"""
     rng = np.random.default_rng(1)
     a, b, c, d = np.array([0.0, 0, 0]), np.array([1.0, 0, 0]), np.array([1.0, 1, 0]), np.array([0.0, 1, 0])
-    t1, t2 = np.array([a, b, c]), np.array([a, c, d])
-    origin = np.array([0.3, -0.7, 1.3])
-    for s in rng.random(2000):
-        p = a + s * (c - a)   # a point on the shared edge (rounded: the test must still not lose it)
+    t1, t2 = (np.array([a, c, b]), np.array([a, d, c])) if flip else (np.array([a, b, c]), np.array([a, c, d]))
+    origin = np.array([0.3, -0.7, -1.3 if below else 1.3])
+    points = [a + s * (c - a) for s in rng.random(2000)] + [(a + c) / 2]
+    for p in points:
         dx, dy, dz = p - origin
-        h1 = intersect_triangle(*origin, dx, dy, dz, t1, 0.0, np.inf)[0]
-        h2 = intersect_triangle(*origin, dx, dy, dz, t2, 0.0, np.inf)[0]
-        assert h1 < np.inf or h2 < np.inf
+        h1 = intersect_triangle(*origin, dx, dy, dz, t1, 0.0, np.inf)[0] < np.inf
+        h2 = intersect_triangle(*origin, dx, dy, dz, t2, 0.0, np.inf)[0] < np.inf
+        assert h1 != h2, p
+    # axis-aligned rays exactly on the diagonal (every edge function computed exactly, so the tie-break decides)
+    for x in np.linspace(0.0, 1.0, 17)[1:-1]:
+        z = 1.0 if below else -1.0
+        hits = [intersect_triangle(x, x, -z, 0.0, 0.0, z, tri, 0.0, np.inf)[0] < np.inf for tri in (t1, t2)]
+        assert sum(hits) == 1, x
+
+
+def test_open3d_box_counts_each_crossing_once():
+    """Open3D's own box test: rays through the middle of faces (the diagonal shared by a face's two triangles)
+    count [2, 1, 0] crossings and list three hits."""
+    box = trimesh.creation.box(extents=(1, 1, 1))
+    box.apply_translation([0.5, 0.5, 0.5])
+    s = RaycastingScene()
+    s.add_triangles(box.vertices, box.faces)
+    rays = np.array([[0.5, 0.5, -1, 0, 0, 1], [0.5, 0.5, 0.5, 0, 0, 1], [10, 10, 10, 1, 0, 0]], np.float32)
+    assert s.count_intersections(rays).tolist() == [2, 1, 0]
+    listed = s.list_intersections(rays)
+    assert listed["ray_splits"].tolist() == [0, 2, 3, 3]
+    np.testing.assert_allclose(listed["t_hit"], [1.0, 2.0, 0.5])
+
+
+@pytest.mark.parametrize("subdivisions", [1, 2, 3])
+def test_rays_through_vertices_and_edges_of_a_closed_mesh_count_true_crossings(subdivisions):
+    """Rays from outside through an icosphere's centre and a vertex (and its antipode) or an edge's midpoint cross
+    it twice, rays from the centre once, whatever the mesh's fans look like (5 or 6 triangles a vertex); the
+    packet kernels and the one-ray walk name the same triangle on these ties."""
+    mesh = trimesh.creation.icosphere(subdivisions=subdivisions)
+    s = RaycastingScene()
+    s.add_triangles(mesh.vertices, mesh.faces)
+    mids = mesh.vertices[mesh.edges_unique].mean(axis=1)
+    for targets in (mesh.vertices, mids):
+        assert (s.count_intersections(-3 * targets, 4 * targets) == 2).all()
+        assert (s.count_intersections(np.zeros_like(targets), targets) == 1).all()
+        listed = s.list_intersections(np.zeros_like(targets), targets)
+        assert len(listed["t_hit"]) == len(targets)
+    edges = mesh.edges_unique
+    u = np.linspace(0.0, 1.0, 16)[None, :, None]
+    along = ((1 - u) * mesh.vertices[edges[:, 0]][:, None] + u * mesh.vertices[edges[:, 1]][:, None]).reshape(-1, 3)
+    packets = s.cast_rays(np.zeros_like(along), along)
+    perm = np.random.default_rng(0).permutation(len(along))
+    single = s.cast_rays(np.zeros_like(along)[perm], along[perm])
+    np.testing.assert_array_equal(packets["primitive_ids"][perm], single["primitive_ids"])
+    np.testing.assert_array_equal(packets["t_hit"][perm], single["t_hit"])
 
 
 def test_watertight_million_rays_from_inside_closed_icosphere():
@@ -86,3 +136,27 @@ def test_watertight_packets_aimed_along_edges_and_at_vertices():
     t = scene.cast_rays(origins, directions)["t_hit"]
     assert np.isfinite(t).all()
     np.testing.assert_allclose(t, 1.0, atol=0.02)  # the targets lie on the mesh, at t = 1
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_axis_rays_from_inside_an_integer_hull_cross_once(seed):
+    """Random convex hulls of integer points (consistently wound), rays along the 6 axis directions from integer
+    points strictly inside: the rays run along the hull's integer grid, so many pass exactly through its edges
+    and vertices (edge functions of exactly 0), and each must cross the closed surface exactly once; the same
+    lines from outside, through the inside point, cross exactly twice."""
+    rng = np.random.default_rng(seed)
+    hull = trimesh.convex.convex_hull(rng.integers(-6, 7, (12, 3)).astype(float))
+    if hull.volume < 1.0:
+        return
+    s = RaycastingScene()
+    s.add_triangles(hull.vertices, hull.faces)
+    grid = np.stack(np.meshgrid(*[np.arange(-6.0, 7.0)] * 3), -1).reshape(-1, 3)
+    inside = grid[np.abs(s.compute_winding_number(grid)) > 0.999]
+    inside = inside[s.compute_distance(inside) > 1e-9]
+    axes = np.concatenate([np.eye(3), -np.eye(3)])
+    o = np.repeat(inside, 6, axis=0)
+    d = np.tile(axes, (len(inside), 1))
+    assert (s.count_intersections(o, d) == 1).all()
+    assert np.isfinite(s.cast_rays(o, d)["t_hit"]).all()
+    assert (s.count_intersections(o - 20 * d, d) == 2).all()

@@ -114,16 +114,16 @@ def test_leading_shape_float32_and_noncontiguous():
     pts = np.random.default_rng(3).normal(size=(4, 5, 6))[..., ::2]  # a non-contiguous (4, 5, 3) view
     r = s.compute_closest_points(pts)
     assert r["points"].shape == (4, 5, 3) and r["primitive_uvs"].shape == (4, 5, 2)
-    assert r["geometry_ids"].shape == (4, 5) and r["geometry_ids"].dtype == np.int32
-    assert r["primitive_ids"].dtype == np.int32 and r["points"].dtype == np.float64
-    d32 = s.compute_distance(pts.astype(np.float32), keep_float32=True)
+    assert r["geometry_ids"].shape == (4, 5) and r["geometry_ids"].dtype == np.uint32  # Open3D's id type
+    assert r["primitive_ids"].dtype == np.uint32 and r["points"].dtype == np.float64
+    d32 = s.compute_distance(pts.astype(np.float32))  # float32 points, float32 answers (Open3D's types)
     assert d32.dtype == np.float32 and d32.shape == (4, 5)
     np.testing.assert_allclose(d32, s.compute_distance(pts), rtol=1e-5, atol=1e-6)
-    r32 = s.compute_closest_points(pts.astype(np.float32), keep_float32=True)
+    r32 = s.compute_closest_points(pts.astype(np.float32))
     assert r32["points"].dtype == np.float32 and r32["primitive_normals"].dtype == np.float32
-    assert s.compute_distance(pts.astype(np.float32)).dtype == np.float64
     assert s.compute_signed_distance(np.zeros((0, 3))).shape == (0,)
-    assert s.compute_occupancy(pts, keep_float32=True).dtype == np.float64  # float64 points stay float64
+    assert s.compute_occupancy(pts).dtype == np.float64  # float64 points stay float64
+    assert s.compute_occupancy(pts.astype(np.float32)).dtype == np.float32
 
 
 def test_analytic_sphere_and_ellipsoid():
@@ -244,9 +244,22 @@ def test_nthreads_and_open3d_names():
     assert s.count_intersections(rays, nthreads=1).shape == (2000,)
     with pytest.raises(ValueError, match="not both"):
         s.test_occlusions(rays, tnear=0.5, t_min=0.5)
-    assert INVALID_ID == RaycastingScene.INVALID_ID == -1
+    assert INVALID_ID == RaycastingScene.INVALID_ID == 2**32 - 1  # Open3D's
     empty_hit = s.cast_rays([[10.0, 10, 10, 0, 0, 1]])
     assert empty_hit["geometry_ids"][0] == RaycastingScene.INVALID_ID
+
+
+def test_open3d_inputs_and_an_empty_scene():
+    """nthreads=-1 is automatic (as Open3D takes it); an empty scene answers point queries: nothing is near."""
+    s = _scene(trimesh.creation.icosphere(subdivisions=2))
+    pts = np.random.default_rng(9).normal(size=(50, 3))
+    np.testing.assert_array_equal(s.compute_distance(pts, nthreads=-1), s.compute_distance(pts))
+    empty = RaycastingScene()
+    assert np.isinf(empty.compute_distance(pts)).all() and np.isinf(empty.compute_signed_distance(pts)).all()
+    assert (empty.compute_occupancy(pts) == 0).all() and (empty.compute_winding_number(pts) == 0).all()
+    near = empty.compute_closest_points(pts.astype(np.float32))
+    assert (near["geometry_ids"] == INVALID_ID).all() and np.isnan(near["points"]).all()
+    assert near["points"].dtype == np.float32
 
 
 def test_repr_says_what_it_holds():
@@ -269,9 +282,6 @@ def test_repr_says_what_it_holds():
     (lambda s: s.compute_occupancy(np.zeros((1, 3)), method="parity", nsamples=0), "nsamples must be at least 1"),
     (lambda s: s.compute_winding_number(np.zeros((1, 3)), beta=1.0), "beta must be greater than 1"),
     (lambda s: s.compute_winding_number(np.zeros((1, 3)), order=3), "order must be 1 or 2"),
-    (lambda s: s.compute_distance(np.zeros((1, 3)), nthreads=-1), "nthreads must be 0"),
-    (lambda s: RaycastingScene().compute_distance(np.zeros((1, 3))), "the scene is empty"),
-    (lambda s: RaycastingScene().compute_signed_distance(np.zeros((1, 3))), "the scene is empty"),
 ])
 def test_value_errors(call, message):
     s = _scene(trimesh.creation.icosphere(subdivisions=1))

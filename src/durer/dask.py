@@ -69,7 +69,7 @@ def _array(name: str, a, width: int) -> da.Array:
 
 def _per_item(func, scene, arr: da.Array, dtype, **kwargs) -> da.Array:
     """func(block, scene, **kwargs) over the blocks of arr (..., k), giving (...,) blocks."""
-    if dtype == np.float64 and kwargs.get("keep_float32") and arr.dtype == np.float32:
+    if dtype == np.float64 and arr.dtype == np.float32:  # float32 points give float32 answers
         dtype = np.float32
     handle = scatter(scene)
     return da.map_blocks(func, arr, handle, dtype=dtype, drop_axis=arr.ndim - 1,
@@ -96,8 +96,8 @@ def cast_rays(scene, rays, **kwargs) -> dict:
                            meta=np.empty((0,) * arr.ndim), **kwargs)
     return {
         "t_hit": packed[..., 0],
-        "geometry_ids": packed[..., 1].astype(np.int32),
-        "primitive_ids": packed[..., 2].astype(np.int32),
+        "geometry_ids": packed[..., 1].astype(np.uint32),
+        "primitive_ids": packed[..., 2].astype(np.uint32),
         "primitive_uvs": packed[..., 3:5],
         "primitive_normals": packed[..., 5:8],
     }

@@ -13,56 +13,36 @@ at home. Every added geometry is an *instance*: a shared bottom-level BVH plus a
 
 from __future__ import annotations
 
-import contextlib
-import functools
 import os
 
-import numba
 import numpy as np
 
+from . import pinhole
 from .accel import batches
 from .accel.batches import RayBatch
-from .accel.bvh import INVALID_ID, Shape, TwoLevelBVH, flat_image_width
+from .accel.bvh import Shape, TwoLevelBVH, flat_image_width
 from .accel.distance import DEFAULT_BETA, DEFAULT_ORDER, SIGN_BETA, DistanceIndex
 from .kernels.bvh.trace import image_width
 from .kernels.common import SPHERE
+from .query_args import (
+    INVALID_ID,
+    array,
+    check_device,
+    finite_array,
+    ids,
+    is_scalar,
+    mesh_arrays,
+    numeric_array,
+    results,
+    t_range,
+    tensor,
+    threads,
+)
+from .query_args import (
+    transform as transform_matrix,
+)
 
 __all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
-
-
-def _numeric_array(name: str, a, shape_tail: tuple[int, ...], keep_float32: bool = False) -> np.ndarray:
-    """a as a float64 array (..., *shape_tail), not necessarily contiguous (float32 kept as it is with
-    keep_float32: the query kernels read it as it is); ValueError naming `name` otherwise."""
-    arr = np.asarray(a)
-    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
-    if arr.ndim < len(shape_tail) or tuple(arr.shape[arr.ndim - len(shape_tail):]) != shape_tail:
-        want = "(..., " + ", ".join(map(str, shape_tail)) + ")"
-        raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
-    if keep_float32 and arr.dtype == np.float32:
-        return arr
-    return arr.astype(np.float64, copy=False)
-
-
-def _finite_array(name: str, a, shape_tail: tuple[int, ...]) -> np.ndarray:
-    """_numeric_array, C-contiguous, and free of NaN and infinity."""
-    arr = np.ascontiguousarray(_numeric_array(name, a, shape_tail))
-    if not np.isfinite(arr).all():
-        raise ValueError(f"{name} contains NaN or infinity")
-    return arr
-
-
-def _transform(matrix) -> np.ndarray:
-    m = np.asarray(matrix, dtype=np.float64)
-    if m.shape != (4, 4):
-        raise ValueError(f"transform must be a 4x4 matrix, got shape {m.shape}")
-    if not np.isfinite(m).all():
-        raise ValueError("transform contains NaN or infinity")
-    if not np.allclose(m[3], [0.0, 0.0, 0.0, 1.0]):
-        raise ValueError(f"transform must be affine (last row 0 0 0 1), got {m[3]}")
-    if abs(np.linalg.det(m[:3, :3])) < 1e-300:
-        raise ValueError("transform is singular")
-    return m
 
 
 class RaycastingScene:
@@ -72,40 +52,52 @@ class RaycastingScene:
     first query after a change (each mesh's own tree when it is added); `build_seconds` totals both.
     """
 
+    INVALID_ID = INVALID_ID  # Open3D's id of a miss, 2**32 - 1 in the uint32 id arrays
+
     @staticmethod
-    def create_rays_pinhole(fov_deg: float, center, eye, up, width_px: int, height_px: int) -> np.ndarray:
-        """Rays (height_px, width_px, 6) of a pinhole camera at `eye` looking at `center`, one through each
-        pixel's centre: Open3D's call, with durer's conventions (row 0 at the top, columns left to right,
-        unit directions so t_hit is a distance; fov_deg spans the longer image side)."""
-        from .scene.cameras import PerspectiveCamera, pixel_centers
+    def create_rays_pinhole(*args, **kwargs) -> np.ndarray:
+        """Open3D's camera rays, float32 (height_px, width_px, 6), in either of its forms:
+        create_rays_pinhole(intrinsic_matrix, extrinsic_matrix, width_px, height_px) or
+        create_rays_pinhole(fov_deg, center, eye, up, width_px, height_px), fov_deg horizontal. The same rays as
+        Open3D's (row 0 looks along -up, column 0 to the camera's left; directions with camera-space z = 1, so
+        t_hit is depth along the optical axis): see pinhole.py."""
+        return tensor(pinhole.create_rays_pinhole(*args, **kwargs))
 
-        eye = np.asarray(eye, dtype=np.float64)
-        camera = PerspectiveCamera(center=eye, direction=np.asarray(center, dtype=np.float64) - eye, up=up,
-                                   angle=fov_deg)
-        width_px, height_px = int(width_px), int(height_px)
-        if width_px < 1 or height_px < 1:
-            raise ValueError(f"image size must be positive, got {width_px} x {height_px}")
-        origins, directions, _ = camera.generate_rays(pixel_centers(width_px, height_px), width_px, height_px)
-        return np.concatenate([origins, directions], axis=-1)
-
-    def __init__(self) -> None:
+    def __init__(self, nthreads: int = 0, device=None) -> None:
+        """nthreads and device as Open3D takes them: durer builds on Numba's threads (nthreads > 0 caps them
+        while building) and runs on the CPU (any other device is a ValueError)."""
+        check_device(device)
+        self._nthreads = int(nthreads)
         self._shapes: list[Shape] = []
         self._instances: list[tuple[int, np.ndarray]] = []  # (shape index, object-to-world 4x4)
         self._bvh: TwoLevelBVH | None = None  # built on the first query after a change
         self._distance: DistanceIndex | None = None  # point queries' index over self._bvh, built on first use
 
     # ---------------------------------------------------------------------------------------------- adding
-    def add_triangles(self, vertices, triangles, transform=None) -> int:
-        """Add a mesh: vertices (V, 3) float, triangles (F, 3) int indices. Returns its geometry id."""
-        v = _finite_array("vertices", vertices, (3,))
+    def add_triangles(self, vertex_positions=None, triangle_indices=None, transform=None, *, mesh=None,
+                      vertices=None, triangles=None) -> int:
+        """Add a mesh: vertex_positions (V, 3) float and triangle_indices (F, 3) int (Open3D's names; durer's
+        vertices / triangles also work), or one mesh (an Open3D or trimesh triangle mesh) as the first argument
+        or mesh=. Returns its geometry id."""
+        if mesh is not None or (triangle_indices is None and triangles is None and vertex_positions is not None
+                                and mesh_arrays(vertex_positions) is not None):
+            arrays = mesh_arrays(mesh if mesh is not None else vertex_positions)
+            if arrays is None:
+                raise ValueError(f"add_triangles needs a triangle mesh, got {type(mesh).__name__}")
+            vertex_positions, triangle_indices = arrays
+        vertex_positions = vertices if vertex_positions is None else vertex_positions
+        triangle_indices = triangles if triangle_indices is None else triangle_indices
+        if vertex_positions is None or triangle_indices is None:
+            raise ValueError("add_triangles needs vertex_positions and triangle_indices, or a mesh")
+        v = finite_array("vertex_positions", vertex_positions, (3,))
         if v.ndim != 2:
-            raise ValueError(f"vertices must have shape (V, 3), got {v.shape}")
-        f = np.asarray(triangles)
+            raise ValueError(f"vertex_positions must have shape (V, 3), got {v.shape}")
+        f = array(triangle_indices)
         if f.ndim != 2 or f.shape[1] != 3:
-            raise ValueError(f"triangles must have shape (F, 3), got {f.shape}")
+            raise ValueError(f"triangle_indices must have shape (F, 3), got {f.shape}")
         if f.size and not np.issubdtype(f.dtype, np.integer):
             if not np.issubdtype(f.dtype, np.floating) or not np.all(np.mod(f, 1) == 0):
-                raise ValueError(f"triangles must hold integer vertex indices, got dtype {f.dtype}")
+                raise ValueError(f"triangle_indices must hold integer vertex indices, got dtype {f.dtype}")
         f = f.astype(np.int64)
         if f.size and (f.min() < 0 or f.max() >= len(v)):
             bad = f[(f < 0) | (f >= len(v))][0]
@@ -114,20 +106,22 @@ class RaycastingScene:
         return self._add(len(self._shapes) - 1, transform)
 
     def add_mesh(self, mesh, transform=None) -> int:
-        """Add a trimesh.Trimesh, or a mesh file (anything trimesh reads: PLY, OBJ, STL, glTF...)."""
+        """Add a trimesh.Trimesh or an Open3D triangle mesh, or a mesh file (anything trimesh reads: PLY, OBJ,
+        STL, glTF...)."""
         if isinstance(mesh, (str, os.PathLike)):
             import trimesh
 
             if not os.path.exists(mesh):
                 raise FileNotFoundError(f"no such mesh file: {os.fspath(mesh)}")
             mesh = trimesh.load(os.fspath(mesh), force="mesh", process=False)
-        if not hasattr(mesh, "vertices") or not hasattr(mesh, "faces"):
-            raise ValueError(f"add_mesh needs a trimesh.Trimesh or a path, got {type(mesh).__name__}")
-        return self.add_triangles(mesh.vertices, mesh.faces, transform)
+        arrays = mesh_arrays(mesh)
+        if arrays is None:
+            raise ValueError(f"add_mesh needs a triangle mesh or a path, got {type(mesh).__name__}")
+        return self.add_triangles(*arrays, transform)
 
     def add_sphere(self, center, radius: float, transform=None) -> int:
         """Add a sphere (an ellipsoid under a non-uniform transform). Returns its geometry id."""
-        c = _finite_array("center", center, (3,)).reshape(-1)
+        c = finite_array("center", center, (3,)).reshape(-1)
         if c.shape != (3,):
             raise ValueError(f"center must have shape (3,), got {np.shape(center)}")
         r = float(radius)
@@ -144,7 +138,7 @@ class RaycastingScene:
         return self._add(self._instances[int(geometry_id)][0], transform)
 
     def _add(self, shape: int, transform) -> int:
-        m = np.eye(4) if transform is None else _transform(transform)
+        m = np.eye(4) if transform is None else transform_matrix(transform)
         self._instances.append((shape, m))
         self._bvh = None
         return len(self._instances) - 1
@@ -153,7 +147,8 @@ class RaycastingScene:
     def _tree(self) -> TwoLevelBVH:
         """The BVH over the current geometries (accel/bvh.TwoLevelBVH), built on the first query after a change."""
         if self._bvh is None:
-            self._bvh = TwoLevelBVH(self._shapes, list(self._instances))
+            with threads(self._nthreads):
+                self._bvh = TwoLevelBVH(self._shapes, list(self._instances))
         return self._bvh
 
     @property
@@ -162,22 +157,27 @@ class RaycastingScene:
         return self._bvh.build_seconds if self._bvh is not None else sum(s.build_seconds for s in self._shapes)
 
     # ------------------------------------------------------------------------------------------------ rays
-    def _rays(self, origins, directions, t_min, t_max) -> RayBatch:
-        """The rays as given (float32 or float64 views (N, 3), any strides: the kernels read and check them as
-        they trace, accel/batches.py), the t range per ray (a scalar as a stride-0 view), the leading shape."""
+    def _rays(self, rays, directions, t_min, t_max) -> RayBatch:
+        """The rays as given (float32 or float64 views (N, 3), any strides: the kernels read them as they trace,
+        accel/batches.py), the t range per ray (a scalar as a stride-0 view), the leading shape. rays (..., 6),
+        or origins (..., 3) with directions (..., 3); at least one leading dimension (a single ray is (1, 6))."""
         if directions is None:
-            rays = np.asarray(origins)
-            if rays.ndim < 1 or rays.shape[-1] != 6:
-                raise ValueError(f"rays must have shape (..., 6) when no directions are given, got {rays.shape}")
-            rays = _numeric_array("rays", rays, (6,), keep_float32=True)
-            lead = rays.shape[:-1]
-            rays = rays.reshape(-1, 6)
-            o, d, names = rays[:, :3], rays[:, 3:], ("rays", "rays")
+            r = array(rays)
+            if r.ndim < 2 or r.shape[-1] != 6:
+                raise ValueError(f"rays must have shape (..., 6) with at least 2 dimensions (one ray is (1, 6)) "
+                                 f"when no directions are given, got {r.shape}")
+            r = numeric_array("rays", r, (6,), keep_float32=True)
+            lead = r.shape[:-1]
+            r = r.reshape(-1, 6)
+            o, d, names = r[:, :3], r[:, 3:], ("rays", "rays")
         else:
-            o = _numeric_array("origins", origins, (3,), keep_float32=True)
-            d = _numeric_array("directions", directions, (3,), keep_float32=True)
+            o = numeric_array("origins", rays, (3,), keep_float32=True)
+            d = numeric_array("directions", directions, (3,), keep_float32=True)
             if o.shape != d.shape:
                 raise ValueError(f"origins {o.shape} and directions {d.shape} must have the same shape")
+            if o.ndim < 2:
+                raise ValueError(f"origins and directions must have shape (..., 3) with at least 2 dimensions, "
+                                 f"got {o.shape}")
             lead = o.shape[:-1]
             o, d, names = o.reshape(-1, 3), d.reshape(-1, 3), ("origins", "directions")
         lo = self._interval("t_min", t_min, lead)
@@ -188,7 +188,7 @@ class RaycastingScene:
     @staticmethod
     def _interval(name: str, value, lead) -> np.ndarray:
         """t_min or t_max per ray, (N,) float64: a scalar as a stride-0 view (nothing allocated)."""
-        a = np.asarray(value, dtype=np.float64)
+        a = array(value).astype(np.float64, copy=False)
         if np.isnan(a).any():
             raise ValueError(f"{name} contains NaN")
         if a.ndim == 0:
@@ -199,60 +199,78 @@ class RaycastingScene:
             raise ValueError(f"{name} of shape {a.shape} does not broadcast to the rays' shape {lead}") from None
         return np.ascontiguousarray(a).reshape(-1)
 
-    def cast_rays(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
-        """Closest hit of each ray. origins and directions (..., 3), or one (..., 6) array of both.
+    def cast_rays(self, rays, nthreads: int = 0, *, directions=None, t_min=None, t_max=None, tnear=None,
+                  tfar=None) -> dict:
+        """Closest hit of each ray: Open3D's cast_rays(rays (..., 6), nthreads=0). durer also takes
+        cast_rays(origins, directions) (two (..., 3) arrays), a t range t_min / t_max (or tnear / tfar: scalars
+        or per ray) and float64 rays.
 
-        Returns t_hit (inf on a miss), geometry_ids and primitive_ids (-1 on a miss, uint32-safe int32),
+        Returns t_hit (inf on a miss), geometry_ids and primitive_ids (uint32, INVALID_ID on a miss),
         primitive_uvs (barycentric weights of vertex 1 and 2), primitive_normals (unit, world space, by the
         triangle's winding; spheres: outward), each shaped like the rays' leading dimensions. Directions need
-        not be unit length; t is in units of the direction's length. t, uvs and normals are float32 when the rays
-        are (origins and directions both, or the (..., 6) array), as Open3D and Embree return them, else float64;
-        they are computed in float64 either way and rounded once, so float32 rays get the float64 answers of the
-        same values rounded to float32 (half the output memory: 32 bytes a ray instead of 56).
+        not be unit length; t is in units of the direction's length. A ray with a NaN, an infinity or a zero
+        direction misses (as in Open3D and Embree). t, uvs and normals are float32 when the rays are, computed in
+        float64 and rounded once (so they equal the float64 answers of the same rays, rounded), else float64.
         """
-        rays = self._rays(origins, directions, t_min, t_max)
-        out = batches.cast(self._tree(), rays)
-        return {key: a.reshape(*rays.lead, *a.shape[1:]) for key, a in out.items()}
+        rays, directions, nthreads = _durer_form(rays, directions, nthreads)
+        batch = self._rays(rays, directions, *t_range(t_min, t_max, tnear, tfar))
+        with threads(nthreads):
+            out = batches.cast(self._tree(), batch)
+        out["geometry_ids"], out["primitive_ids"] = ids(out["geometry_ids"]), ids(out["primitive_ids"])
+        return results({key: a.reshape(*batch.lead, *a.shape[1:]) for key, a in out.items()})
 
-    def test_occlusions(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> np.ndarray:
-        """True for each ray that hits anything with t_min < t < t_max (stops at the first hit found)."""
-        rays = self._rays(origins, directions, t_min, t_max)
-        return batches.occluded(self._tree(), rays).reshape(rays.lead)
+    def test_occlusions(self, rays, tnear: float = 0.0, tfar: float = np.inf, nthreads: int = 0, *,
+                        directions=None, t_min=None, t_max=None) -> np.ndarray:
+        """True for each ray that hits anything with tnear < t < tfar (stops at the first hit found): Open3D's
+        test_occlusions(rays, tnear=0.0, tfar=inf, nthreads=0); t_min / t_max are durer's names for the range, and
+        test_occlusions(origins, directions) durer's form."""
+        if not is_scalar(tnear):  # durer's form: test_occlusions(origins, directions, ...)
+            rays, directions, tnear = rays, tnear, 0.0
+        near = None if t_min is not None and is_scalar(tnear) and float(array(tnear)) == 0.0 else tnear
+        far = None if t_max is not None and is_scalar(tfar) and float(array(tfar)) == np.inf else tfar
+        lo, hi = t_range(t_min, t_max, near, far)  # t_min / t_max beside a tnear / tfar not their default: error
+        batch = self._rays(rays, directions, lo, hi)
+        with threads(nthreads):
+            return tensor(batches.occluded(self._tree(), batch).reshape(batch.lead))
 
-    def count_intersections(self, origins, directions=None, t_min: float = 0.0,
-                            t_max: float = np.inf) -> np.ndarray:
-        """Number of surface crossings along each ray (spheres count twice when passed through), int32.
+    def count_intersections(self, rays, nthreads: int = 0, *, directions=None, t_min=None, t_max=None, tnear=None,
+                            tfar=None) -> np.ndarray:
+        """Number of surface crossings along each ray (spheres count twice when passed through), int32: Open3D's
+        count_intersections(rays, nthreads=0), with cast_rays' durer forms. For a point and any direction, an odd
+        count means inside a closed mesh. Each crossing counts once, also through a shared edge or vertex: the
+        triangle test gives an edge to exactly one of the two triangles sharing it (kernels/intersect.py)."""
+        rays, directions, nthreads = _durer_form(rays, directions, nthreads)
+        batch = self._rays(rays, directions, *t_range(t_min, t_max, tnear, tfar))
+        with threads(nthreads):
+            counts, _ = batches.crossings(self._tree(), batch, fill=False)
+        return tensor(counts.astype(np.int32).reshape(batch.lead))
 
-        For a point and any direction, an odd count means inside a closed mesh. A ray through a shared edge or
-        vertex hits every triangle there (the test is watertight, so none is skipped), which adds crossings:
-        use a random direction.
-        """
-        rays = self._rays(origins, directions, t_min, t_max)
-        counts, _ = batches.crossings(self._tree(), rays, fill=False)
-        return counts.astype(np.int32).reshape(rays.lead)
-
-    def list_intersections(self, origins, directions=None, t_min: float = 0.0, t_max: float = np.inf) -> dict:
-        """Every crossing of every ray, as flat arrays sorted by ray then t (Open3D's layout):
-
-        ray_splits (N+1,) so ray i's hits are [ray_splits[i], ray_splits[i+1]); ray_ids, t_hit, geometry_ids,
-        primitive_ids, primitive_uvs (M, 2). Rays are numbered in C order of the leading shape.
-        """
-        rays = self._rays(origins, directions, t_min, t_max)
-        n = len(rays)
-        counts, out = batches.crossings(self._tree(), rays, fill=True)
-        ray_ids = np.repeat(np.arange(n, dtype=np.int64), counts)
+    def list_intersections(self, rays, nthreads: int = 0, *, directions=None, t_min=None, t_max=None, tnear=None,
+                           tfar=None) -> dict:
+        """Every crossing of every ray, as flat arrays sorted by ray then t (Open3D's list_intersections(rays,
+        nthreads=0) and layout): ray_splits (N+1,) so ray i's hits are [ray_splits[i], ray_splits[i+1]); ray_ids,
+        geometry_ids, primitive_ids (uint32), t_hit, primitive_uvs (M, 2) (float32 for float32 rays). Rays are
+        numbered in C order of the leading shape; the durer forms are cast_rays'."""
+        rays, directions, nthreads = _durer_form(rays, directions, nthreads)
+        batch = self._rays(rays, directions, *t_range(t_min, t_max, tnear, tfar))
+        n = len(batch)
+        with threads(nthreads):
+            counts, out = batches.crossings(self._tree(), batch, fill=True)
+        index = np.uint32 if int(counts.sum()) < INVALID_ID and n < INVALID_ID else np.int64
+        ray_ids = np.repeat(np.arange(n, dtype=index), counts)
         order = np.lexsort((out["t"], ray_ids))
         prim = np.where(out["kind"] == SPHERE, 0, out["prim"]).astype(np.int32)
-        splits = np.zeros(n + 1, np.int64)
+        splits = np.zeros(n + 1, index)
         np.cumsum(counts, out=splits[1:])
-        return {
+        ft = batch.out_dtype
+        return results({
             "ray_splits": splits,
             "ray_ids": ray_ids[order],
-            "t_hit": out["t"][order],
-            "geometry_ids": out["inst"][order],
-            "primitive_ids": prim[order],
-            "primitive_uvs": np.stack([out["u"], out["v"]], axis=-1)[order],
-        }
+            "t_hit": out["t"][order].astype(ft),
+            "geometry_ids": ids(out["inst"][order]),
+            "primitive_ids": ids(prim[order]),
+            "primitive_uvs": np.stack([out["u"], out["v"]], axis=-1)[order].astype(ft),
+        })
 
     @property
     def nbytes(self) -> int:
@@ -268,15 +286,14 @@ class RaycastingScene:
     # Closest points, distances, winding numbers, signed distance and occupancy (issue 11). Distances are exact
     # (float64) for meshes and spheres under any affine transform: see accel/distance.py.
     def _points(self, query_points) -> tuple[np.ndarray, tuple, bool]:
-        """Validate and flatten: (points (N, 3) float64 contiguous, leading shape, whether the input was float32)."""
-        if not self._instances:
-            raise ValueError("the scene is empty: add a mesh or a sphere before querying points")
-        src = np.asarray(query_points)
-        arr = np.ascontiguousarray(_numeric_array("query_points", src, (3,))).reshape(-1, 3)
+        """Validate and flatten: (points (N, 3) float64 contiguous, leading shape, the outputs' float type: float32
+        for float32 points, as Open3D, else float64)."""
+        src = array(query_points)
+        arr = np.ascontiguousarray(numeric_array("query_points", src, (3,))).reshape(-1, 3)
         if not np.isfinite(arr).all():  # one cheap pass; the row only when there is one to name
             bad = ~np.isfinite(arr).all(axis=1)
             raise ValueError(f"query_points contains NaN or infinity (point {int(np.argmax(bad))})")
-        return arr, src.shape[:-1], src.dtype == np.float32
+        return arr, src.shape[:-1], (np.float32 if src.dtype == np.float32 else np.float64)
 
     def _distance_index(self) -> DistanceIndex:
         tree = self._tree()
@@ -284,35 +301,45 @@ class RaycastingScene:
             self._distance = DistanceIndex(tree)
         return self._distance
 
-    def compute_closest_points(self, query_points, nthreads: int | None = None, keep_float32: bool = False) -> dict:
-        """Closest surface point of each query point (..., 3): points (..., 3), geometry_ids, primitive_ids (int32;
+    def compute_closest_points(self, query_points, nthreads: int = 0) -> dict:
+        """Closest surface point of each query point (..., 3): points (..., 3), geometry_ids, primitive_ids (uint32;
         spheres 0), primitive_uvs (..., 2: barycentric weights of vertex 1 and 2, 0 for spheres) and
-        primitive_normals (..., 3: unit, world space, by the triangle's winding; spheres outward). Exact for
-        triangles (Ericson's region test) and spheres, ellipsoids included. keep_float32: float32 points give
-        float32 points, uvs and normals (Open3D's types); otherwise float64."""
-        p, lead, f32 = self._points(query_points)
-        with _threads(nthreads):
-            index = self._distance_index()
-            _, inst, kind, prim, q, uv = index.closest_points(p)
-            normals = index.normals(q, inst, kind, prim)
-        ft = np.float32 if keep_float32 and f32 else np.float64
-        return {
+        primitive_normals (..., 3: unit, world space, by the triangle's winding; spheres outward); float32 for
+        float32 points. Exact for triangles (Ericson's region test) and spheres, ellipsoids included. On an empty
+        scene: NaN points and normals, INVALID_ID ids."""
+        p, lead, ft = self._points(query_points)
+        if not self._instances:
+            n = len(p)
+            inst, prim = np.full(n, -1, np.int32), np.full(n, -1, np.int32)
+            q, uv, normals = np.full((n, 3), np.nan), np.zeros((n, 2)), np.full((n, 3), np.nan)
+        else:
+            with threads(nthreads):
+                index = self._distance_index()
+                _, inst, kind, prim, q, uv = index.closest_points(p)
+                normals = index.normals(q, inst, kind, prim)
+        return results({
             "points": q.astype(ft, copy=False).reshape(*lead, 3),
-            "geometry_ids": inst.reshape(lead),
-            "primitive_ids": prim.reshape(lead),
+            "geometry_ids": ids(inst.astype(np.int32, copy=False)).reshape(lead),
+            "primitive_ids": ids(prim.astype(np.int32, copy=False)).reshape(lead),
             "primitive_uvs": uv.astype(ft, copy=False).reshape(*lead, 2),
             "primitive_normals": normals.astype(ft, copy=False).reshape(*lead, 3),
-        }
+        })
 
-    def compute_distance(self, query_points, nthreads: int | None = None, keep_float32: bool = False) -> np.ndarray:
-        """Unsigned distance (...,) from each query point (..., 3) to the nearest surface."""
-        p, lead, f32 = self._points(query_points)
-        with _threads(nthreads):
-            d2 = self._distance_index().closest_points(p)[0]
-        return np.sqrt(d2).astype(np.float32 if keep_float32 and f32 else np.float64, copy=False).reshape(lead)
+    def _distances(self, p: np.ndarray) -> np.ndarray:
+        """Unsigned distance of points p (N, 3), float64 (inf on an empty scene)."""
+        if not self._instances:
+            return np.full(len(p), np.inf)
+        return np.sqrt(self._distance_index().closest_points(p)[0])
+
+    def compute_distance(self, query_points, nthreads: int = 0) -> np.ndarray:
+        """Unsigned distance (...,) from each query point (..., 3) to the nearest surface (inf on an empty scene)."""
+        p, lead, ft = self._points(query_points)
+        with threads(nthreads):
+            d = self._distances(p)
+        return tensor(d.astype(ft, copy=False).reshape(lead))
 
     def compute_winding_number(self, query_points, beta: float = DEFAULT_BETA, order: int = DEFAULT_ORDER,
-                               nthreads: int | None = None, return_error_bound: bool = False):
+                               nthreads: int = 0, return_error_bound: bool = False):
         """Generalized winding number (...,) of each query point over all geometries: 1 inside a closed mesh
         wound counter-clockwise seen from outside (-1 if wound the other way, as the Stanford bunny is), 0
         outside, in between near holes (Jacobson et al. 2013); spheres count 1 inside. Evaluated through the BVH
@@ -320,13 +347,20 @@ class RaycastingScene:
         inf sums every triangle exactly). With return_error_bound also a rigorous bound on each value's error
         from the approximation (kernels/points/winding.py). On the bunny, beta=2, order 2 is off by at most 0.05."""
         p, lead, _ = self._points(query_points)
-        with _threads(nthreads):
-            w, err = self._distance_index().winding_numbers(p, float(beta), int(order))
-        return (w.reshape(lead), err.reshape(lead)) if return_error_bound else w.reshape(lead)
+        if not self._instances:
+            w = err = np.zeros(len(p))
+        else:
+            with threads(nthreads):
+                w, err = self._distance_index().winding_numbers(p, float(beta), int(order))
+        return (tensor(w.reshape(lead)), tensor(err.reshape(lead))) if return_error_bound else tensor(w.reshape(lead))
 
     def _inside(self, p: np.ndarray, method: str, nsamples: int, beta: float) -> np.ndarray:
         """Inside test of points p (N, 3): |winding number| > 1/2 (either winding order), or the majority of
-        nsamples rays' crossing parity."""
+        nsamples rays' crossing parity. Nothing is inside an empty scene."""
+        if method not in ("winding", "parity"):
+            raise ValueError(f"method must be 'winding' or 'parity', got {method!r}")
+        if not self._instances:
+            return np.zeros(len(p), np.bool_)
         if method == "winding":
             return np.abs(self._distance_index().winding_numbers(p, float(beta), want_err=False)[0]) > 0.5
         if method != "parity":
@@ -337,9 +371,8 @@ class RaycastingScene:
         dirs = _PARITY_DIRECTIONS[:nsamples] if nsamples <= len(_PARITY_DIRECTIONS) else _directions(nsamples)
         return self._distance_index().crossing_votes(p, dirs) * 2 > nsamples
 
-    def compute_signed_distance(self, query_points, nthreads: int | None = None, nsamples: int = 1,
-                                method: str = "winding", beta: float = SIGN_BETA,
-                                keep_float32: bool = False) -> np.ndarray:
+    def compute_signed_distance(self, query_points, nthreads: int = 0, nsamples: int = 1,
+                                method: str = "winding", beta: float = SIGN_BETA) -> np.ndarray:
         """Distance to the nearest surface, negative inside (Open3D's sign). Inside is decided by
 
         * method="winding" (default): |generalized winding number| > 1/2, evaluated with far field `beta`
@@ -349,24 +382,23 @@ class RaycastingScene:
         * method="parity": Open3D's rule, the parity of one ray's crossings (a majority vote of `nsamples`
           rays; each leaves the point away from the scene's middle, tilted by a fixed direction per sample).
           Several times faster than the winding number; right for closed, non-self-intersecting meshes, but a
-          ray through a hole flips the sign, and a ray exactly through an edge counts both triangles.
+          ray through a hole flips the sign.
         """
-        p, lead, f32 = self._points(query_points)
-        with _threads(nthreads):
-            d = np.sqrt(self._distance_index().closest_points(p)[0])
+        p, lead, ft = self._points(query_points)
+        with threads(nthreads):
+            d = self._distances(p)
             inside = self._inside(p, method, nsamples, beta)
         d = np.where(inside, -d, d)
-        return d.astype(np.float32 if keep_float32 and f32 else np.float64, copy=False).reshape(lead)
+        return tensor(d.astype(ft, copy=False).reshape(lead))
 
-    def compute_occupancy(self, query_points, nthreads: int | None = None, nsamples: int = 1,
-                          method: str = "winding", beta: float = SIGN_BETA,
-                          keep_float32: bool = False) -> np.ndarray:
+    def compute_occupancy(self, query_points, nthreads: int = 0, nsamples: int = 1,
+                          method: str = "winding", beta: float = SIGN_BETA) -> np.ndarray:
         """1.0 inside, 0.0 outside for each query point (Open3D returns float too); method and nsamples as in
         compute_signed_distance."""
-        p, lead, f32 = self._points(query_points)
-        with _threads(nthreads):
+        p, lead, ft = self._points(query_points)
+        with threads(nthreads):
             inside = self._inside(p, method, nsamples, beta)
-        return inside.astype(np.float32 if keep_float32 and f32 else np.float64).reshape(lead)
+        return tensor(inside.astype(ft).reshape(lead))
 
     # ---------------------------------------------------------------------------------- pickling and repr
     def __getstate__(self) -> dict:
@@ -375,13 +407,14 @@ class RaycastingScene:
         if self._instances:
             self._tree()
         return {"version": 1, "shapes": self._shapes, "instances": self._instances, "bvh": self._bvh,
-                "distance": self._distance}
+                "distance": self._distance, "nthreads": self._nthreads}
 
     def __setstate__(self, state: dict) -> None:
         if state.get("version") != 1:
             raise ValueError(f"cannot unpickle a RaycastingScene of state version {state.get('version')}")
         self._shapes, self._instances, self._bvh = state["shapes"], state["instances"], state["bvh"]
         self._distance = state["distance"]
+        self._nthreads = state.get("nthreads", 0)
 
     def __repr__(self) -> str:
         meshes = sum(1 for s, _ in self._instances if len(self._shapes[s].normals))
@@ -405,38 +438,11 @@ def _directions(n: int) -> np.ndarray:
 _PARITY_DIRECTIONS = _directions(16)
 
 
-@contextlib.contextmanager
-def _threads(nthreads: int | None):
-    """Numba's thread count set to nthreads for the block (0: all cores; None: leave it), restored after."""
-    if nthreads is None:
-        yield
-        return
-    n = int(nthreads)
-    if n < 0:
-        raise ValueError(f"nthreads must be 0 (all cores) or positive, got {nthreads}")
-    old = numba.get_num_threads()
-    numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS) if n else numba.config.NUMBA_NUM_THREADS)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(old)
-
-
-def _open3d_arguments(method):
-    """Accept nthreads= (as every point query does) and Open3D's tnear / tfar for t_min / t_max."""
-    @functools.wraps(method)
-    def call(self, *args, nthreads: int | None = None, tnear=None, tfar=None, **kwargs):
-        for o3d_name, name, value in (("tnear", "t_min", tnear), ("tfar", "t_max", tfar)):
-            if value is not None:
-                if name in kwargs:
-                    raise ValueError(f"give {name} or Open3D's {o3d_name}, not both")
-                kwargs[name] = value
-        with _threads(nthreads):
-            return method(self, *args, **kwargs)
-    return call
-
-
-for _name in ("cast_rays", "test_occlusions", "count_intersections", "list_intersections"):
-    setattr(RaycastingScene, _name, _open3d_arguments(getattr(RaycastingScene, _name)))
-
-RaycastingScene.INVALID_ID = INVALID_ID  # Open3D's spelling: the geometry and primitive id of a miss
+def _durer_form(rays, directions, nthreads):
+    """durer's form f(origins, directions) of a ray query whose second parameter is Open3D's nthreads: an array
+    there is the directions. Returns (rays or origins, directions, nthreads)."""
+    if not is_scalar(nthreads):
+        if directions is not None:
+            raise ValueError("directions given twice")
+        return rays, nthreads, 0
+    return rays, directions, nthreads

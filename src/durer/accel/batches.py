@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernels.bvh.bands import band_size, check_bands, first_problem, n_bands
+from ..kernels.bvh.bands import band_size, first_problem, n_bands
 from ..kernels.bvh.queries import (
     closest_one_level,
     closest_two_level,
@@ -55,17 +55,14 @@ class RayBatch:
     def band(self) -> int:
         return band_size(self.width)
 
-    def run(self, kernel, *args) -> None:
+    def run(self, kernel, *args) -> tuple[int, int, int]:
         """kernel(origins, directions, t_min, t_max, *args, first, k0, k1) over the batch's bands on every
-        thread, then the first bad ray's ValueError, as the checks before the kernels used to raise it."""
+        thread. Rays with a NaN, an infinity or a zero direction are misses (bands.load_band); returns the first
+        of them (first ray with NaN or infinity, 0 origin / 1 direction, first zero direction; -1: none)."""
         bands = n_bands(len(self), self.band())
         first = np.empty((bands, 3), np.int64)
         run_pieces(kernel, bands, self.origins, self.directions, self.t_min, self.t_max, *args, first)
-        bad, part, zero = first_problem(first)
-        if bad >= 0:
-            raise ValueError(f"{self.names[part]} contains NaN or infinity (ray {bad})")
-        if zero >= 0:
-            raise ValueError(f"direction {zero} is zero")
+        return first_problem(first)
 
 
 def _one_level(tree: TwoLevelBVH) -> tuple | None:
@@ -91,7 +88,6 @@ def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
     t, inst, prim = np.empty(n, ft), np.empty(n, np.int32), np.empty(n, np.int32)
     uv, normals = np.empty((n, 2), ft), np.empty((n, 3), ft)
     if not tree.instances:
-        rays.run(check_bands, _IDENTITY, rays.band())
         t[:], inst[:], prim[:], uv[:], normals[:] = np.inf, INVALID_ID, INVALID_ID, 0.0, 0.0
     elif (one := _one_level(tree)) is not None:
         w2o, moved, args, maps = one
@@ -109,8 +105,8 @@ def occluded(tree: TwoLevelBVH, rays: RayBatch) -> np.ndarray:
     """Whether each ray hits anything with t_min < t < t_max (RaycastingScene.test_occlusions), flat."""
     out = np.zeros(len(rays), np.bool_)
     if not tree.instances:
-        rays.run(check_bands, _IDENTITY, rays.band())
-    elif (one := _one_level(tree)) is not None:
+        return out
+    if (one := _one_level(tree)) is not None:
         w2o, moved, args, _ = one
         rays.run(occluded_one_level, w2o, moved, *args, rays.width, rays.band(), out)
     else:
@@ -126,7 +122,6 @@ def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
     f, i32, i8 = np.zeros(0), np.zeros(0, np.int32), np.zeros(0, np.int8)
     empty = dict(t=f, inst=i32, kind=i8, prim=i32, u=f, v=f)
     if not tree.instances:
-        rays.run(check_bands, _IDENTITY, rays.band())
         return counts, (empty if fill else None)
     args = (*tree.packed.args, rays.band())
     rays.run(crossings_two_level, *args, np.zeros(n, np.int64), f, i32, i8, i32, f, f, counts)

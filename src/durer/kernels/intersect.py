@@ -85,15 +85,28 @@ def ray_shear(dx, dy, dz):
 
 
 @nb.njit(cache=True, inline="always", error_model="numpy")
+def edge_sign(e, px, py, qx, qy):
+    """Whether the edge function e of the sheared edge p -> q (e = qx py - qy px) counts as positive, a zero
+    decided as if the ray were moved by (eps, eps^2) in the sheared frame: e then becomes eps (qy - py) -
+    eps^2 (qx - px), positive iff q lies above p, or level with it and to its left. The two triangles sharing an
+    edge traverse it in opposite directions and compute the same e with opposite sign, so a ray on the edge is
+    inside exactly one of them; all tests of one ray move it the same way, so a ray through a vertex is inside
+    exactly one triangle of a fan around it. Comparisons only: exact for any float (no rounding to disagree on)."""
+    return e > 0.0 or (e == 0.0 and (qy > py or (qy == py and qx < px)))
+
+
+@nb.njit(cache=True, inline="always", error_model="numpy")
 def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max):
     """Woop, Benthin & Wald (2013): (t, u, v) of the hit, u, v the weights of vertex1 and vertex2, or t = inf.
 
     tri[base:base + 9] holds the vertices (v0 xyz, v1 xyz, v2 xyz); okx, oky, okz are the ray origin's
     coordinates permuted by ray_shear.
     Each vertex is moved into the ray's sheared frame on its own, so two triangles sharing an edge compute that
-    edge's 2D edge function from identical numbers with exactly opposite sign: a ray can fall on the edge (and
-    hit both), never between. Both sides count; edge-on and degenerate triangles (determinant 0) are missed.
-    No fused multiply-add (fastmath is off), which would break that symmetry.
+    edge's 2D edge function from identical numbers with exactly opposite sign: a ray can fall on the edge, never
+    between. A ray exactly on an edge or a vertex (an edge function of 0) is decided by edge_sign, which gives
+    the edge to exactly one of the triangles sharing it and the vertex to one triangle of its fan: each crossing
+    of a closed mesh counts once. Edge-on and degenerate triangles (determinant 0) are missed. No fused
+    multiply-add (fastmath is off), which would break that symmetry.
     """
     b = np.uint64(base)  # unsigned offsets: no negative-index wraparound on the loads
     ux, uy, uz = np.uint64(kx), np.uint64(ky), np.uint64(kz)
@@ -113,6 +126,10 @@ def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min,
     # on incoherent rays
     if min(e0, min(e1, e2)) < 0.0 and max(e0, max(e1, e2)) > 0.0:
         return INF, 0.0, 0.0
+    if e0 == 0.0 or e1 == 0.0 or e2 == 0.0:  # on an edge or a vertex (rare): the tie-break
+        s0 = edge_sign(e0, bx, by, cx, cy)
+        if s0 != edge_sign(e1, cx, cy, ax, ay) or s0 != edge_sign(e2, ax, ay, bx, by):
+            return INF, 0.0, 0.0
     det = e0 + e1 + e2
     if det == 0.0:
         return INF, 0.0, 0.0

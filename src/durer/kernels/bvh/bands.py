@@ -1,14 +1,14 @@
 """Ray batches of the query API (Numba): the user's rays read as given, one cache-sized band at a time.
 
 `RaycastingScene` takes origins and directions as two (..., 3) arrays or one (..., 6) array, float32 or float64,
-with any strides, and t_min / t_max as scalars or per-ray arrays; every ray must be finite with a non-zero
-direction. The traversal kernels want C-contiguous float64 (N, 3) rays and (N,) t ranges. Converting a whole
-batch up front cost ~100 MB of fresh arrays per million rays, whose first touch is expensive (benchmarks/
-README.md, issue 9). Instead each work item copies one band of rays (TILE rows of an image, or BAND rays) into
-small float64 scratch that stays in cache, checking the rays as it copies them, and the query passes
-(kernels/bvh/queries.py) trace the scratch and write the user's outputs from it. float32 converts to float64
-exactly, so float32 rays give the results of the same values given in float64, to the bit.
-"""
+with any strides, and t_min / t_max as scalars or per-ray arrays. A ray with a NaN or an infinity in it, or a zero
+direction, misses (as in Open3D and Embree): it is traced as a ray with an empty t range. The traversal kernels want
+C-contiguous float64 (N, 3) rays and (N,) t ranges. Converting a whole batch up front cost ~100 MB of fresh arrays
+per million rays, whose first touch is expensive (benchmarks/ README.md, issue 9). Instead each work item copies one
+band of rays (TILE rows of an image, or BAND rays) into small float64 scratch that stays in cache, checking the rays
+as it copies them, and the query passes (kernels/bvh/queries.py) trace the scratch and write the user's outputs from
+it. float32 converts to float64 exactly, so float32 rays give the results of the same values given in float64, to
+the bit."""
 
 from __future__ import annotations
 
@@ -44,27 +44,31 @@ def load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, 
     row 0, as float64; with `moved`, into the object space of w2o (3, 4) by the two-level kernels' arithmetic
     (instances.to_object), so a lone transformed instance gets their t to the bit. Records the band's problems
     in first[k] (first ray with a NaN or infinity, 0 if in its origin / 1 if in its direction, first ray with a
-    zero direction; -1: none). Returns (r0, m, whether the band is clean)."""
+    zero direction; -1: none); each such ray is stored as the ray from 0 along +z with the empty t range (0, 0),
+    which every kernel reports as a miss. Returns (r0, m, True: the band is to be traced)."""
     r0 = k * band
     r1 = min(origins.shape[0], r0 + band)
     bad, where, zero = -1, -1, -1
     for i in range(r0, r1):
         ox, oy, oz, dx, dy, dz = ray_at(origins, directions, i)
-        if bad < 0:
-            if not (np.isfinite(ox) and np.isfinite(oy) and np.isfinite(oz)):
-                bad, where = i, 0
-            elif not (np.isfinite(dx) and np.isfinite(dy) and np.isfinite(dz)):
-                bad, where = i, 1
-        if zero < 0 and dx == 0.0 and dy == 0.0 and dz == 0.0:
+        finite_o = np.isfinite(ox) and np.isfinite(oy) and np.isfinite(oz)
+        finite_d = np.isfinite(dx) and np.isfinite(dy) and np.isfinite(dz)
+        null = dx == 0.0 and dy == 0.0 and dz == 0.0
+        if bad < 0 and not (finite_o and finite_d):
+            bad, where = i, (1 if finite_o else 0)
+        if zero < 0 and null:
             zero = i
-        if moved:
-            ox, oy, oz, dx, dy, dz = to_object(w2o, ox, oy, oz, dx, dy, dz)
         j = i - r0
+        lo[j], hi[j] = t_min[i], t_max[i]
+        if not (finite_o and finite_d) or null:
+            ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+            lo[j], hi[j] = 0.0, 0.0
+        elif moved:
+            ox, oy, oz, dx, dy, dz = to_object(w2o, ox, oy, oz, dx, dy, dz)
         o[j, 0], o[j, 1], o[j, 2] = ox, oy, oz
         d[j, 0], d[j, 1], d[j, 2] = dx, dy, dz
-        lo[j], hi[j] = t_min[i], t_max[i]
     first[k, 0], first[k, 1], first[k, 2] = bad, where, zero
-    return r0, r1 - r0, bad < 0 and zero < 0
+    return r0, r1 - r0, True
 
 
 @nb.njit(**JIT, inline="always")

@@ -19,7 +19,7 @@ import numba as nb
 import numpy as np
 
 from ..common import JIT
-from ..intersect import shear_axes, sphere_hit_in_object_space
+from ..intersect import edge_sign, shear_axes, sphere_hit_in_object_space
 from ..small_sort import insert_ascending
 from .layout import (
     FAR_WIDEN,
@@ -168,9 +168,10 @@ def packet_constants(rr, kx0, ky0, kz0):
 
 @nb.njit(**JIT, inline="always")
 def _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, rr):
-    """Whether any of the packet's rays passes the watertight test's edge test of the triangle (the sheared
-    vertices' edge functions share a sign, as in _packet_leaf, to the bit): most triangles of a leaf miss every
-    ray of a 4 x 4 tile, and this loop (no division, no stores) lets _packet_leaf skip them."""
+    """Whether any of the packet's rays may pass the watertight test's edge test of the triangle (the sheared
+    vertices' edge functions, computed as in _packet_leaf to the bit, do not have mixed signs: a superset of the
+    rays _packet_leaf accepts, which also settles ties by edge_sign): most triangles of a leaf miss every ray of a
+    4 x 4 tile, and this loop (no division, no stores) lets _packet_leaf skip them."""
     inside = 0
     for k in range(PACKET):
         okx, oky, okz = rr[_OKX + k], rr[_OKY + k], rr[_OKZ + k]
@@ -210,6 +211,7 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                              np.float64(leaf_tri[base + 6 + kz]))
             if not _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, rr):
                 continue
+            ties = 0
             for k in range(PACKET):
                 okx, oky, okz = rr[_OKX + k], rr[_OKY + k], rr[_OKZ + k]
                 sx, sy, sz = rr[_SX + k], rr[_SY + k], rr[_SZ + k]
@@ -228,7 +230,10 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                 det = e0 + e1 + e2
                 t = sz * (e0 * az + e1 * bz + e2 * cz) / det
                 best = rr[_BEST + k]
-                ok = ((det != 0.0) & (rr[_TMIN + k] < t) & (t < best)
+                # a ray on an edge or a vertex (an edge function of 0) is left to _packet_ties, after this loop
+                on_edge = (e0 == 0.0) | (e1 == 0.0) | (e2 == 0.0)
+                ties += on_edge
+                ok = ((det != 0.0) & (rr[_TMIN + k] < t) & (t < best) & ~on_edge
                       & ~(((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0))))
                 if any_mode:
                     rr[_BEST + k] = -np.inf if ok else best
@@ -238,6 +243,8 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                     rr[_E2 + k] = e2 if ok else rr[_E2 + k]
                     rr[_DET + k] = det if ok else rr[_DET + k]
                     rr[_PRIM + k] = fp if ok else rr[_PRIM + k]
+            if ties:
+                _packet_ties(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, fp, rr, any_mode)
         else:
             s = -p - 1
             for k in range(PACKET):
@@ -253,6 +260,43 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                             rr[_BEST + k] = t
                             rr[_E1 + k], rr[_E2 + k], rr[_DET + k] = 0.0, 0.0, 1.0
                             rr[_PRIM + k] = -(s + 1.0)
+
+
+@nb.njit(**JIT, inline="always")
+def _packet_ties(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, fp, rr, any_mode):
+    """The rays of the packet that lie exactly on an edge or a vertex of the triangle (rare), which _packet_leaf's
+    vector loop leaves out: the one-ray test's decision for them (the same arithmetic, to the bit, and
+    intersect.edge_sign's tie-break), recorded as _packet_leaf records a hit. Kept out of the vector loop so that
+    its common case does no more work than before the tie-break."""
+    for k in range(PACKET):
+        okx, oky, okz = rr[_OKX + k], rr[_OKY + k], rr[_OKZ + k]
+        sx, sy, sz = rr[_SX + k], rr[_SY + k], rr[_SZ + k]
+        az = az0 - okz
+        bz = bz0 - okz
+        cz = cz0 - okz
+        ax = (ax0 - okx) - sx * az
+        ay = (ay0 - oky) - sy * az
+        bx = (bx0 - okx) - sx * bz
+        by = (by0 - oky) - sy * bz
+        cx = (cx0 - okx) - sx * cz
+        cy = (cy0 - oky) - sy * cz
+        e0 = cx * by - cy * bx
+        e1 = ax * cy - ay * cx
+        e2 = bx * ay - by * ax
+        if not (e0 == 0.0 or e1 == 0.0 or e2 == 0.0):
+            continue
+        s0 = edge_sign(e0, bx, by, cx, cy)
+        if s0 != edge_sign(e1, cx, cy, ax, ay) or s0 != edge_sign(e2, ax, ay, bx, by):
+            continue
+        det = e0 + e1 + e2
+        if det == 0.0:
+            continue
+        t = sz * (e0 * az + e1 * bz + e2 * cz) / det
+        if rr[_TMIN + k] < t < rr[_BEST + k]:
+            if any_mode:
+                rr[_BEST + k] = -np.inf
+            else:
+                rr[_BEST + k], rr[_E1 + k], rr[_E2 + k], rr[_DET + k], rr[_PRIM + k] = t, e1, e2, det, fp
 
 
 @nb.njit(**JIT)
