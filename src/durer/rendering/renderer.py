@@ -15,7 +15,7 @@ from .raycaster import RenderContext
 from .result import RenderResult
 from .units import job_for, make_context, plan, run
 
-__all__ = ["RenderResult", "check_size", "make_context", "make_options", "render", "render_in"]
+__all__ = ["RenderResult", "check_size", "make_context", "make_options", "render", "render_in", "resolve"]
 
 PHYSICAL = (Surface, *BSDF.__args__)  # materials only the path tracer renders
 
@@ -86,6 +86,17 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
     """Render `scene` at width x height; keyword arguments are RenderOptions fields (shade_back, shadows,
     bounces, weight, samples, sampler, filter, seed, integrator, max_depth, ...). Returns colour, depth and normal
     arrays. A scene's own render defaults (Mitsuba scenes: integrator, sampler, film) apply unless given here."""
+    width, height, options = resolve(scene, width, height, options, **kwargs)
+    start = time.perf_counter()
+    if not quiet and kernels_cold():
+        print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
+    return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+
+
+def resolve(scene: Scene, width: int | None, height: int | None, options: RenderOptions | None = None,
+            **kwargs) -> tuple[int, int, RenderOptions]:
+    """render()'s arguments checked, over the scene's own defaults: (width, height, options); ValueError naming
+    what is wrong. Shared with durer.dask.render, so both render the same image from the same arguments."""
     defaults = dict(getattr(scene, "render_defaults", None) or {})
     width = width if width is not None else defaults.get("width")
     height = height if height is not None else defaults.get("height")
@@ -101,10 +112,7 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
     if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in scene.materials):
         raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
                          "integrator='path'")
-    start = time.perf_counter()
-    if not quiet and kernels_cold():
-        print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
-    return render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+    return width, height, options
 
 
 def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,
