@@ -8,8 +8,9 @@ frame 0 being the scene's own camera. The look-at point and the axis are
   - for a camera framed on a model (a model file without a camera: cameras.frame_sphere), the centre of the
     model's bounding sphere and the framing's up (world +Y, or +Z for Z-up models);
   - for any other camera (course scenes, Mitsuba, glTF cameras), the point on its viewing axis as far from it as
-    the centre of the scene's bounding box: center + direction * |box centre - center|, and its (orthonormal)
-    up vector.
+    the centre of the scene's bounding box: center + direction * |box centre - center|, and the world axis
+    (+-X, +-Y or +-Z) nearest the camera's up vector: the up the scene file gave (a camera keeps only its
+    orthonormalised up, tilted when it looks down), so the camera keeps its height above the floor as it turns.
 Camera path (`camera_path`): a JSON list of keys {"eye": [x,y,z], "look_at": [x,y,z], "up": [x,y,z], "fov": deg}
 (up defaults to [0, 1, 0], fov to the scene camera's angle, else 40), interpolated linearly key to key.
 """
@@ -29,7 +30,7 @@ from ..scene.graph import Scene
 from .result import RenderResult
 from .units import Job, finish, run
 
-__all__ = ["camera_path", "frame_job", "look_at_point", "render_frames", "turntable"]
+__all__ = ["camera_path", "frame_job", "look_at_point", "render_frames", "turntable", "world_up"]
 
 
 def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -50,8 +51,17 @@ def look_at_point(scene: Scene, camera) -> np.ndarray:
     return camera.center + camera.direction * (distance if distance > 0 else 1.0)
 
 
+def world_up(up) -> np.ndarray:
+    """The world axis (+-X, +-Y, +-Z) nearest `up`: the vertical a turntable turns about."""
+    up = np.asarray(up, dtype=np.float64)
+    k = int(np.argmax(np.abs(up)))
+    axis = np.zeros(3)
+    axis[k] = np.sign(up[k])
+    return axis
+
+
 def turntable(scene: Scene, frames: int, width: int, height: int) -> list:
-    """`frames` cameras orbiting the look-at point of the scene's camera about its up axis (module docstring),
+    """`frames` cameras orbiting the look-at point of the scene's camera about its vertical (module docstring),
     one full turn; frame 0 is the scene's own camera for this image size."""
     if int(frames) != frames or frames < 1:
         raise ValueError(f"frames must be a positive integer, got {frames}")
@@ -62,7 +72,7 @@ def turntable(scene: Scene, frames: int, width: int, height: int) -> list:
                              f"{type(camera).__name__}")
     frame = getattr(scene.camera, "frame", None)
     pivot, axis = (np.asarray(frame[0]), np.asarray(frame[2])) if frame else (look_at_point(scene, camera),
-                                                                               camera.up)
+                                                                               world_up(camera.up))
     cameras = [camera]
     for k in range(1, int(frames)):
         r = _rotation(axis, 2.0 * math.pi * k / frames)
