@@ -274,6 +274,9 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--linear", action="store_true",
                    help="write 8-bit colour without the sRGB curve, truncated as the course does")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
+    from .cli_frames import add_arguments
+
+    add_arguments(p, _positive_int)  # --scheduler, --frames, --camera-path
     return p
 
 
@@ -283,6 +286,10 @@ def run_render(argv: list[str]) -> int:
     a = render_parser().parse_args(argv)
     render_options(a)  # a bad flag is reported before anything is read
     depth = _depth(a.depth, "--depth") if a.depth else None
+    from . import cli_frames
+
+    if cli_frames.wanted(a):  # a Dask cluster or several frames
+        return cli_frames.run_frames(a, depth, render_options, _default_size)
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p])
     from . import load
 

@@ -32,7 +32,7 @@ from ..rendering.units import Accumulators, Job, Tile, finish, prepare, render_u
 from ..scene.graph import Scene
 from .cluster import active_client, cores
 
-__all__ = ["prepare_job", "render", "render_frames", "run_job"]
+__all__ = ["prepare_job", "render", "render_frames", "results_of", "run_job"]
 
 
 def prepare_job(scene: Scene, width: int | None = None, height: int | None = None, *, samples: int | None = None,
@@ -113,7 +113,7 @@ def run_job(job: Job, cameras: list | None = None, client=None, bar=None) -> lis
     return sums
 
 
-def _results(job: Job, cameras: list | None, client, quiet: bool) -> list[RenderResult]:
+def results_of(job: Job, cameras: list | None, client, quiet: bool) -> list[RenderResult]:
     """Run the job (through each camera) on the client's cluster, or here without a distributed client."""
     start = time.perf_counter()
     client = client or active_client()
@@ -142,7 +142,7 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
     client it renders here."""
     job = prepare_job(scene, width, height, samples=samples, seed=seed, tile=tile, pass_samples=pass_samples,
                       options=options, **render_options)
-    return _results(job, None, client, quiet)[0]
+    return results_of(job, None, client, quiet)[0]
 
 
 def render_frames(scene: Scene, cameras: list, width: int | None = None, height: int | None = None, *,
@@ -157,4 +157,4 @@ def render_frames(scene: Scene, cameras: list, width: int | None = None, height:
         raise ValueError("render_frames needs at least one camera")
     job = prepare_job(scene, width, height, samples=samples, seed=seed, tile=tile, pass_samples=pass_samples,
                       options=options, **render_options)
-    return _results(job, list(cameras), client, quiet)
+    return results_of(job, list(cameras), client, quiet)
