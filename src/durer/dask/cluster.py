@@ -49,10 +49,11 @@ def cores() -> int:
 
 
 @contextlib.contextmanager
-def connect(spec: str, timeout: float = CONNECT_TIMEOUT) -> Iterator:
+def connect(spec: str, timeout: float | None = None) -> Iterator:
     """A distributed Client for `spec` (parse_scheduler), closed (and a local cluster stopped) on exit.
     local:N workers each get cores // N Numba threads, so N workers do not oversubscribe the machine."""
     target = parse_scheduler(spec)
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
     try:
         from distributed import Client, LocalCluster
     except ImportError:
