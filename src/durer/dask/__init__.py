@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .cluster import active_client, connect
 from .queries import cast_rays, compute_distance, compute_occupancy, compute_signed_distance, scatter, test_occlusions
-from .render import prepare_job, render, render_frames, run_job
+from .render import prepare_job, render, render_frames, run_job, split_for
 
 __all__ = ["active_client", "cast_rays", "compute_distance", "compute_occupancy", "compute_signed_distance",
-           "connect", "prepare_job", "render", "render_frames", "run_job", "scatter", "test_occlusions"]
+           "connect", "prepare_job", "render", "render_frames", "run_job", "scatter", "split_for", "test_occlusions"]

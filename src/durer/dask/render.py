@@ -32,7 +32,9 @@ from ..rendering.units import Accumulators, Job, Tile, finish, prepare, render_u
 from ..scene.graph import Scene
 from .cluster import active_client, cores
 
-__all__ = ["prepare_job", "render", "render_frames", "results_of", "run_job"]
+__all__ = ["prepare_job", "render", "render_frames", "results_of", "run_job", "split_for"]
+
+TASKS_PER_THREAD = 4  # at least this many tasks per worker thread (split_for): a late task is a small share
 
 
 def prepare_job(scene: Scene, width: int | None = None, height: int | None = None, *, samples: int | None = None,
@@ -69,6 +71,14 @@ def _unit(job: Job, camera, tile: Tile, samples: range) -> Accumulators:
         threads = 1
     nb.set_num_threads(max(1, min(nb.config.NUMBA_NUM_THREADS, cores() // max(1, threads))))
     return render_unit(job if camera is None else dataclasses.replace(job, camera=camera), tile, samples)
+
+
+def split_for(job: Job, threads: int, frames: int = 1, per_thread: int = TASKS_PER_THREAD) -> Job:
+    """The job with tiles halved (down to 4 pixels) until there are `per_thread` tasks for each of the cluster's
+    `threads` (units.plan's tiles may be few: one for a 128 x 128 image at 16 spp). Never changes the image."""
+    while len(job.units()) * frames < per_thread * threads and job.tile_side > 4:
+        job = dataclasses.replace(job, tile_side=max(4, job.tile_side // 2 // 4 * 4))
+    return job
 
 
 def run_job(job: Job, cameras: list | None = None, client=None, bar=None) -> list[Accumulators]:
@@ -113,8 +123,9 @@ def run_job(job: Job, cameras: list | None = None, client=None, bar=None) -> lis
     return sums
 
 
-def results_of(job: Job, cameras: list | None, client, quiet: bool) -> list[RenderResult]:
-    """Run the job (through each camera) on the client's cluster, or here without a distributed client."""
+def results_of(job: Job, cameras: list | None, client, quiet: bool, fit: bool = True) -> list[RenderResult]:
+    """Run the job (through each camera) on the client's cluster, or here without a distributed client; `fit`:
+    smaller tiles if there are too few tasks for the cluster's threads (split_for)."""
     start = time.perf_counter()
     client = client or active_client()
     if client is None:
@@ -122,6 +133,9 @@ def results_of(job: Job, cameras: list | None, client, quiet: bool) -> list[Rend
         for r in results:
             r.seconds = time.perf_counter() - start
         return results
+    if fit:
+        threads = sum(client.nthreads().values())
+        job = split_for(job, threads, 1 if cameras is None else len(cameras))
     tasks = len(job.units()) * (1 if cameras is None else len(cameras))
     with _progress(tasks, quiet, unit="task") as bar:
         sums = run_job(job, cameras, client, bar)
@@ -137,12 +151,13 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
            quiet: bool = True, **render_options) -> RenderResult:
     """durer.render(scene, width, height, samples=samples, seed=seed, **render_options) computed on the active
     (or given) distributed client as tasks of tiles x sample passes: the same bytes in colour, depth and
-    normals. `tile`: tile side in pixels (default: units.plan's); `pass_samples`: samples per task (default:
+    normals. `tile`: tile side in pixels (default: units.plan's, halved until every worker thread has
+    TASKS_PER_THREAD tasks); `pass_samples`: samples per task (default:
     durer.render's passes; another size changes the image by the rounding of the sums). Without a distributed
     client it renders here."""
     job = prepare_job(scene, width, height, samples=samples, seed=seed, tile=tile, pass_samples=pass_samples,
                       options=options, **render_options)
-    return results_of(job, None, client, quiet)[0]
+    return results_of(job, None, client, quiet, fit=tile is None)[0]
 
 
 def render_frames(scene: Scene, cameras: list, width: int | None = None, height: int | None = None, *,
@@ -157,4 +172,4 @@ def render_frames(scene: Scene, cameras: list, width: int | None = None, height:
         raise ValueError("render_frames needs at least one camera")
     job = prepare_job(scene, width, height, samples=samples, seed=seed, tile=tile, pass_samples=pass_samples,
                       options=options, **render_options)
-    return results_of(job, list(cameras), client, quiet)
+    return results_of(job, list(cameras), client, quiet, fit=tile is None)
