@@ -117,6 +117,8 @@ def _render(scene, width: int, height: int, options, a: argparse.Namespace, anim
             print("durer: compiling kernels (first run only) ...", file=sys.stderr, flush=True)
         with _progress(width * height * options.samples * len(cameras), a.quiet) as bar:
             return render_frames(job, cameras, bar)
+    from concurrent.futures import CancelledError
+
     from distributed import KilledWorker
 
     from .dask.cluster import connect
@@ -125,6 +127,6 @@ def _render(scene, width: int, height: int, options, a: argparse.Namespace, anim
     try:
         with connect(spec) as client:
             return results_of(job, cameras, client, a.quiet)
-    except (KilledWorker, OSError, TimeoutError) as e:
+    except (KilledWorker, CancelledError, OSError, TimeoutError) as e:  # the cluster, not the scene
         reason = (str(e).splitlines() or [type(e).__name__])[0]
         raise ValueError(f"--scheduler {spec}: the cluster failed ({type(e).__name__}: {reason})") from None
