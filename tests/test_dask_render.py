@@ -146,3 +146,30 @@ def test_a_worker_killed_mid_render_costs_only_its_tasks(scenes, local, cluster,
     assert victim not in client.scheduler_info()["workers"]  # (its nanny started a new one)
     np.testing.assert_array_equal(_arrays(U.finish(job, out["sums"][0])), want)
     assert bar.n == len(job.units())
+
+
+def test_turntable_orbits_the_look_at_point_about_the_vertical(scenes):
+    """spheres.txt's camera looks down at the scene: each frame keeps its height and its distance to the pivot
+    (on the viewing axis, as far as the bounding-box centre) and looks at it; frame 2 of 4 is opposite frame 0."""
+    from durer.rendering.frames import look_at_point
+
+    scene = scenes["whitted"]
+    cams = turntable(scene, 4, W, H)
+    pivot = look_at_point(scene, cams[0])
+    assert cams[0] is scene.camera or np.array_equal(cams[0].center, scene.camera.center)
+    for c in cams:
+        np.testing.assert_allclose(c.center[1], cams[0].center[1], atol=1e-12)  # the same height
+        np.testing.assert_allclose(np.linalg.norm(c.center - pivot), np.linalg.norm(cams[0].center - pivot))
+        to_pivot = (pivot - c.center) / np.linalg.norm(pivot - c.center)
+        np.testing.assert_allclose(c.direction, to_pivot, atol=1e-12)
+    np.testing.assert_allclose(cams[2].center[[0, 2]] - pivot[[0, 2]], -(cams[0].center[[0, 2]] - pivot[[0, 2]]),
+                               atol=1e-12)
+
+
+def test_small_images_are_cut_into_enough_tasks_for_the_cluster(scenes):
+    _, kw = CASES["path"]
+    job = durer_dask.prepare_job(scenes["path"], 128, 128, **{**kw, "samples": 16, "filter": "box", "filter_radius": 0.5})
+    assert len(job.units()) == 1  # units.plan: one 128 x 128 tile
+    split = durer_dask.split_for(job, threads=2)
+    assert len(split.units()) >= 8 and split.tile_side % 4 == 0
+    assert durer_dask.split_for(job, threads=2, frames=8).tile_side == job.tile_side  # frames are tasks too
