@@ -173,3 +173,39 @@ def test_small_images_are_cut_into_enough_tasks_for_the_cluster(scenes):
     split = durer_dask.split_for(job, threads=2)
     assert len(split.units()) >= 8 and split.tile_side % 4 == 0
     assert durer_dask.split_for(job, threads=2, frames=8).tile_side == job.tile_side  # frames are tasks too
+
+
+def _unit_specs(dask_scheduler) -> list[int]:
+    """(On the scheduler) pickled sizes of the durer units' task specs still known."""
+    import pickle
+
+    return [len(pickle.dumps(ts.run_spec)) for key, ts in dask_scheduler.tasks.items()
+            if str(key).startswith("durer-unit") and ts.run_spec is not None]
+
+
+class _Probe:
+    """A progress bar that, at the first finished task, reads the task specs on the scheduler and where the job is."""
+
+    def __init__(self, client):
+        self.client, self.specs, self.job_on = client, None, None
+
+    def update(self, n: int = 1) -> None:
+        if self.specs is None:
+            self.specs = self.client.run_on_scheduler(_unit_specs)
+            self.job_on = self.client.run_on_scheduler(
+                lambda dask_scheduler: {str(k): len(ts.who_has or ()) for k, ts in dask_scheduler.tasks.items()
+                                        if type(ts.run_spec).__name__ == "DataNode" or ts.run_spec is None})
+
+
+def test_the_job_goes_to_each_worker_once(scenes, client):
+    """The tasks name the scattered job (on both workers), they do not carry it: each spec is a small fraction of
+    the pickled job (compiled scene and BVH)."""
+    import pickle
+
+    _, kw = CASES["path"]
+    job = durer_dask.prepare_job(scenes["path"], W, H, tile=4, **kw)
+    probe = _Probe(client)
+    durer_dask.run_job(job, client=client, bar=probe)
+    assert probe.specs and len(probe.specs) > 1
+    assert max(probe.specs) < len(pickle.dumps(job)) / 20, (max(probe.specs), len(pickle.dumps(job)))
+    assert 2 in probe.job_on.values(), probe.job_on  # the job, broadcast: on both workers
