@@ -134,7 +134,8 @@ def test_gui_flags_are_accepted_and_ignored(scene, tmp_path, capsys):
     code, _, err = run(["raycast", "-input", str(scene), "-size", "4", "4", "-output", str(tmp_path / "o.tga"),
                         "-gui", "-tessellation", "10", "5", "-gouraud"], capsys)
     assert code == 0
-    assert err.count("\n") == 1 and "ignored" in err
+    lines = [line for line in err.splitlines() if "compiling the kernels" not in line]  # a cold cache says so too
+    assert len(lines) == 1 and "ignored" in lines[0]
 
 
 def test_version(capsys):

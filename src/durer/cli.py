@@ -233,6 +233,9 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--denoise-quality", choices=DENOISE_QUALITIES, default="high",
                    help="OIDN's preset: high (default), balanced or fast (less time, more error)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
+    from .cli_frames import add_arguments
+
+    add_arguments(p, _positive_int)  # --scheduler, --frames, --camera-path
     return p
 
 
@@ -248,6 +251,12 @@ def _run_render(a: argparse.Namespace) -> int:
     render_options(a)  # a bad flag is reported before anything is read
     depth = _depth(a.depth, "--depth") if a.depth else None
     aovs = _aovs(a)
+    from . import cli_frames
+
+    if cli_frames.wanted(a):  # a Dask cluster or several frames
+        if aovs or a.denoise:
+            raise UsageError("--aov and --denoise are not available with --scheduler, --frames or --camera-path yet")
+        return cli_frames.run_frames(a, depth, render_options, _default_size)
     _check_outputs([p for p in (a.output, depth and depth[2], a.normals) if p] + aov_files(a.output, aovs))
     from . import load
 

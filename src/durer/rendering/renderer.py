@@ -9,7 +9,8 @@ from dataclasses import replace
 
 from ..options import RenderOptions
 from ..scene.graph import Scene
-from .arguments import make_options, parse_filter, resolve
+from .arguments import make_options, parse_filter
+from .arguments import resolve as resolve_arguments
 from .context import RenderContext, make_context
 from .integrators import integrator_for
 from .kernel_cache import compile_notice
@@ -19,8 +20,8 @@ from .result import RenderResult
 from .units import finish, job_for, run
 
 # the names the command line, the preview and the tests take from here (each lives in its own module)
-__all__ = ["BYTES_PER_PIXEL", "RenderResult", "check_size", "choose_integrator", "make_context", "make_options",
-           "memory_needed", "parse_filter", "render", "render_in"]
+__all__ = ["BYTES_PER_PIXEL", "RenderResult", "check_size", "choose_integrator", "denoise_result", "make_context",
+           "make_options", "memory_needed", "parse_filter", "render", "render_in", "resolve"]
 
 
 def choose_integrator(options: RenderOptions):
@@ -34,25 +35,40 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
     """Render `scene` at width x height; keyword arguments are RenderOptions fields (shade_back, shadows,
     bounces, weight, samples, sampler, filter, seed, integrator, max_depth, ...). Returns colour, depth and normal
     arrays. A scene's own render defaults (Mitsuba scenes: integrator, sampler, film) apply unless given here."""
-    width, height, options = resolve(scene, width, height, options, kwargs)
-    check_size(width, height, options.samples, options)
+    width, height, options = resolve(scene, width, height, options, **kwargs)
     start = time.perf_counter()
-    if options.denoise:  # refused before anything is rendered when pyoidn is missing
-        from .denoise import PIXEL_FILTER, require_oidn
-
-        require_oidn()
-        options = replace(options, **PIXEL_FILTER)
     if not quiet:  # one line saying what compiles and for how long, when Numba's cache lacks it (kernel_cache.py)
         compile_notice(options, scene)
     result = render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
     if options.denoise:
-        from .denoise import clean_features, denoise
-
-        done = denoise(result.color, result.albedo, result.shading_normals,
-                       clean=clean_features(scene.materials, options.integrator == "path"),
-                       quality=options.denoise_quality)
-        result.color, result.denoise_seconds = done.color, done.seconds
+        denoise_result(result, scene, options)
         result.seconds = time.perf_counter() - start
+    return result
+
+
+def resolve(scene: Scene, width: int | None = None, height: int | None = None, options: RenderOptions | None = None,
+            **kwargs) -> tuple[int, int, RenderOptions]:
+    """render()'s arguments checked over the scene's own defaults, memory included: (width, height, options);
+    ValueError naming what is wrong. With denoise, pyoidn is required here (before anything is rendered) and the
+    samples get the denoiser's one-pixel box filter. Shared with durer.dask.render and the frames command, so
+    they render what render() renders."""
+    width, height, options = resolve_arguments(scene, width, height, options, kwargs)
+    check_size(width, height, options.samples, options)
+    if options.denoise:
+        from .denoise import PIXEL_FILTER, require_oidn
+
+        require_oidn()
+        options = replace(options, **PIXEL_FILTER)
+    return width, height, options
+
+
+def denoise_result(result: RenderResult, scene: Scene, options: RenderOptions) -> RenderResult:
+    """Replace result.color by OIDN's denoised colour (with the albedo and normal features); in place."""
+    from .denoise import clean_features, denoise
+
+    done = denoise(result.color, result.albedo, result.shading_normals,
+                   clean=clean_features(scene.materials, options.integrator == "path"), quality=options.denoise_quality)
+    result.color, result.denoise_seconds = done.color, done.seconds
     return result
 
 

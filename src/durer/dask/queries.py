@@ -23,7 +23,8 @@ from __future__ import annotations
 import dask.array as da
 import numpy as np
 
-from .query import RaycastingScene
+from ..query import RaycastingScene
+from .cluster import active_client
 
 __all__ = ["cast_rays", "compute_distance", "compute_occupancy", "compute_signed_distance", "scatter",
            "test_occlusions"]
@@ -31,24 +32,12 @@ __all__ = ["cast_rays", "compute_distance", "compute_occupancy", "compute_signed
 _CAST_FIELDS = 8  # t_hit, geometry id, primitive id, u, v, normal x, y, z (packed as float64 per ray)
 
 
-def _client():
-    """The active distributed client, or None (threads or processes of the local scheduler)."""
-    try:
-        from distributed import get_client
-    except ImportError:
-        return None
-    try:
-        return get_client()
-    except ValueError:
-        return None
-
-
 def scatter(scene: RaycastingScene, client=None):
     """The scene placed on the cluster once: a Future on every worker of `client` (default: the active client),
     or the scene itself when no distributed client is running. Pass the result as `scene` to the queries."""
     if not isinstance(scene, RaycastingScene):
         return scene  # already scattered
-    client = client or _client()
+    client = client or active_client()
     if client is None:
         return scene
     scene._tree()  # build before pickling, once, here rather than on each worker
