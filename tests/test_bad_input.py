@@ -317,3 +317,21 @@ def test_radiance_beyond_float32_is_inf_without_a_warning(tmp_path):
         __import__("warnings").simplefilter("error", RuntimeWarning)
         result = durer.render(durer.load(path), 8, 8)
     assert np.isinf(result.color[4, 4, 0]) and result.color.dtype == np.float32
+
+
+# --- the query API (issue 25: Python calls that ended in NumPy's or trimesh's exceptions, or were accepted) ------
+@pytest.mark.parametrize("call, message", [
+    (lambda S: S.create_rays_pinhole(fov_deg=60, center=(0, 0, 0), eye=(0, 0, 5), up=(0, 1, 0), width_px=100000,
+                                     height_px=100000), r"100000 x 100000 rays would take 240.0 GB"),
+    (lambda S: S.create_rays_pinhole(fov_deg=60, center=(0, 0, 0), eye=(0, 0, 5), up=(0, 1, 0), width_px=2.7,
+                                     height_px=3), r"width_px must be a positive whole number of pixels, got 2.7"),
+    (lambda S: S().add_mesh("/etc/passwd"), r"cannot read mesh file '/etc/passwd'"),
+    (lambda S: S().add_sphere((0, 0, 0), [1, 2]), r"radius must be one positive number, got \[1, 2\]"),
+    (lambda S: S().test_occlusions(np.zeros((2, 6), np.float32), 2.0, 1.0), r"the t range is empty: t_min 2.0 > t_max 1.0"),
+    (lambda S: S().compute_occupancy(np.zeros((2, 3)), nsamples=0, method="parity"), r"nsamples must be at least 1"),
+])
+def test_query_api_mistakes_are_one_clear_value_error(call, message):
+    import durer
+
+    with pytest.raises(ValueError, match=message):
+        call(durer.RaycastingScene)

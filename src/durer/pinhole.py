@@ -24,10 +24,21 @@ def _vector(name: str, v) -> np.ndarray:
     return a
 
 
+RAY_BYTES = 24  # one float32 ray (origin and direction) in the (height, width, 6) result
+
+
 def _size(width_px, height_px) -> tuple[int, int]:
+    """The image size as whole positive pixels whose rays fit in memory; ValueError naming what is wrong."""
+    for name, value in (("width_px", width_px), ("height_px", height_px)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer, float, np.floating)) \
+                or value != int(value) or value < 1:
+            raise ValueError(f"{name} must be a positive whole number of pixels, got {value!r}")
     w, h = int(width_px), int(height_px)
-    if w < 1 or h < 1:
-        raise ValueError(f"image size must be positive, got {w} x {h}")
+    from .rendering.memory import physical_memory
+
+    need, have = w * h * RAY_BYTES, physical_memory()
+    if have and need > have // 2:
+        raise ValueError(f"{w} x {h} rays would take {need / 1e9:.1f} GB; this machine has {have / 1e9:.1f} GB")
     return w, h
 
 

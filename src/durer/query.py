@@ -113,7 +113,11 @@ class RaycastingScene:
 
             if not os.path.exists(mesh):
                 raise FileNotFoundError(f"no such mesh file: {os.fspath(mesh)}")
-            mesh = trimesh.load(os.fspath(mesh), force="mesh", process=False)
+            try:
+                mesh = trimesh.load(os.fspath(mesh), force="mesh", process=False)
+            except (NotImplementedError, ValueError, KeyError, IndexError, OSError) as e:
+                raise ValueError(f"cannot read mesh file {os.fspath(mesh)!r} (trimesh reads PLY, STL, OBJ, OFF, glTF, "
+                                 f"...): {e}") from None
         arrays = mesh_arrays(mesh)
         if arrays is None:
             raise ValueError(f"add_mesh needs a triangle mesh or a path, got {type(mesh).__name__}")
@@ -124,6 +128,8 @@ class RaycastingScene:
         c = finite_array("center", center, (3,)).reshape(-1)
         if c.shape != (3,):
             raise ValueError(f"center must have shape (3,), got {np.shape(center)}")
+        if isinstance(radius, bool) or np.ndim(radius) != 0 or not isinstance(np.asarray(radius).item(), (int, float)):
+            raise ValueError(f"radius must be one positive number, got {radius!r}")
         r = float(radius)
         if not np.isfinite(r) or r <= 0.0:
             raise ValueError(f"radius must be positive and finite, got {radius}")
@@ -359,6 +365,8 @@ class RaycastingScene:
         nsamples rays' crossing parity. Nothing is inside an empty scene."""
         if method not in ("winding", "parity"):
             raise ValueError(f"method must be 'winding' or 'parity', got {method!r}")
+        if isinstance(nsamples, bool) or int(nsamples) != nsamples or nsamples < 1:
+            raise ValueError(f"nsamples must be at least 1, got {nsamples!r}")
         if not self._instances:
             return np.zeros(len(p), np.bool_)
         if method == "winding":

@@ -119,7 +119,10 @@ def t_range(t_min, t_max, tnear, tfar) -> tuple:
         raise ValueError("give t_max or Open3D's tfar, not both")
     lo = tnear if tnear is not None else t_min
     hi = tfar if tfar is not None else t_max
-    return (0.0 if lo is None else _from_open3d(lo)), (np.inf if hi is None else _from_open3d(hi))
+    lo, hi = (0.0 if lo is None else _from_open3d(lo)), (np.inf if hi is None else _from_open3d(hi))
+    if is_scalar(lo) and is_scalar(hi) and float(np.asarray(lo)) > float(np.asarray(hi)):
+        raise ValueError(f"the t range is empty: t_min {float(np.asarray(lo))} > t_max {float(np.asarray(hi))}")
+    return lo, hi
 
 
 @contextlib.contextmanager
