@@ -154,7 +154,8 @@ def queries() -> None:
 
 
 def points() -> None:
-    """Point queries: closest points, distance, winding numbers, signed distance and occupancy by both rules."""
+    """Point queries: closest points, distance, winding numbers, signed distance and occupancy by both rules, on
+    float64 leaves and on a large float32 mesh's float32 leaves."""
     import trimesh
 
     import durer
@@ -164,14 +165,18 @@ def points() -> None:
     scene = durer.RaycastingScene()
     scene.add_triangles(mesh.vertices, mesh.faces)
     scene.add_sphere((0, 3, 0), 0.5)
-    for dtype in (np.float32, np.float64):
-        p = rng.uniform(-2, 2, (256, 3)).astype(dtype)
-        scene.compute_closest_points(p)
-        scene.compute_distance(p)
-        scene.compute_signed_distance(p)
-        scene.compute_occupancy(p)
-        scene.compute_signed_distance(p, method="parity", nsamples=3)
-        scene.compute_occupancy(p, method="parity")
+    big = trimesh.creation.icosphere(subdivisions=6)  # float32 leaves, as a scan read from PLY, STL or glTF
+    scan = durer.RaycastingScene()
+    scan.add_triangles(big.vertices.astype(np.float32), big.faces.astype(np.uint32))
+    for target in (scene, scan):
+        for dtype, n in ((np.float32, 256), (np.float64, 256), (np.float32, 5000), (np.float64, 5000)):
+            p = rng.uniform(-2, 2, (n, 3)).astype(dtype)  # 5000: large batches are walked in Morton order
+            target.compute_closest_points(p)
+            target.compute_distance(p)
+            target.compute_signed_distance(p)
+            target.compute_occupancy(p)
+            target.compute_signed_distance(p, method="parity", nsamples=3)
+            target.compute_occupancy(p, method="parity")
 
 
 GROUPS: dict[str, Callable[[], None]] = {"course": course, "path": path, "queries": queries, "points": points}
