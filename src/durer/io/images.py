@@ -104,9 +104,14 @@ def _openexr():
 
 def _write_exr(path: str, data: np.ndarray) -> None:
     """Float32 OpenEXR, ZIP-compressed: RGB for colour, Y for one channel; written beside and renamed."""
-    exr = _openexr()
     pixels = np.ascontiguousarray(data, dtype=np.float32)
-    channels = {"RGB" if pixels.ndim == 3 else "Y": pixels}
+    write_exr_channels(path, {"RGB" if pixels.ndim == 3 else "Y": pixels})
+
+
+def write_exr_channels(path: str, channels: dict[str, np.ndarray]) -> None:
+    """An OpenEXR file of these float32 channels (name -> (H, W) or, for "RGB", (H, W, 3)), ZIP-compressed,
+    written beside the target and renamed into place, so an error never leaves a partial file."""
+    exr = _openexr()
     directory = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".durer-", suffix=".exr", dir=directory)
     os.close(fd)

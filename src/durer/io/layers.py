@@ -10,12 +10,11 @@ Layers in the EXR: the colour as R, G, B; albedo as albedo.R/G/B; normals as nor
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
 
 from ..errors import UsageError
-from .images import RAW, check_extension, depth_visualization, normal_visualization, save_image
+from .images import RAW, check_extension, depth_visualization, normal_visualization, save_image, write_exr_channels
 
 AOVS = ("albedo", "normals", "depth")
 CHANNELS = {"albedo": "RGB", "normals": "XYZ", "depth": "Z"}
@@ -68,27 +67,10 @@ def save_aov(path: str, name: str, values: np.ndarray) -> None:
 
 
 def _write_layers_exr(path: str, color: np.ndarray, layers: dict[str, np.ndarray]) -> None:
-    """Float32 multi-layer OpenEXR (ZIP), written beside and renamed into place."""
-    try:
-        import OpenEXR as exr
-    except ImportError:
-        raise UsageError("writing .exr needs the openexr package (pip install openexr, or durer[exr])") from None
+    """Float32 multi-layer OpenEXR (ZIP): R, G, B and each layer's `name.channel`, written beside and renamed."""
     channels = {c: np.ascontiguousarray(color[..., i], dtype=np.float32) for i, c in enumerate("RGB")}
     for name, values in layers.items():
         values = np.asarray(values, dtype=np.float32)
         for i, c in enumerate(CHANNELS[name]):
             channels[f"{name}.{c}"] = np.ascontiguousarray(values if values.ndim == 2 else values[..., i])
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".durer-", suffix=".exr", dir=directory)
-    os.close(fd)
-    try:
-        with exr.File({"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage}, channels) as f:
-            f.write(tmp)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_exr_channels(path, channels)
