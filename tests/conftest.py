@@ -12,7 +12,7 @@ from hypothesis import settings
 # CI runs the property tests with fixed seeds (derandomize), so a submission's verdict does not depend on luck;
 # local runs keep exploring new examples, and whatever they find is pinned with @example.
 settings.register_profile("ci", derandomize=True)
-# long local runs of the fuzz suite (tests/test_fuzz.py): `python -m pytest tests/test_fuzz.py --hypothesis-profile=fuzz`
+# long local runs of the fuzz suite (tests/test_project_fuzz.py): `python -m pytest tests/test_project_fuzz.py --hypothesis-profile=fuzz`
 settings.register_profile("fuzz", max_examples=5000, deadline=None)
 if os.environ.get("CI"):
     settings.load_profile("ci")

@@ -102,7 +102,7 @@ def module_cached(module: ModuleType) -> bool:
 def _cached(name: str) -> bool:
     try:
         module = _module(name)
-    except ImportError:  # a module moved: stay quiet rather than fail the render (tests/test_kernel_cache.py)
+    except ImportError:  # a module moved: stay quiet rather than fail the render (tests/test_rendering_kernel_cache.py)
         return True
     return module_cached(module)
 

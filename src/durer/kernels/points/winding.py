@@ -20,7 +20,7 @@ gives |error| <= 2 A rho / (d - rho)^3 in solid angle. Order 2: the Taylor remai
 |v . H v| <= 6 / |x - p|^4 for unit v (H = -3 (n y' + y n') - 3 (n . y) I + 15 (n . y) y y' at |y| = 1, whose
 quadratic form is at most 6 = 15 - 6 - 3 in size, reached at n = y = v), so |error| <= 3 A rho^2 / (d - rho)^4.
 Divided by 4 pi for w. `winding_numbers_instances` returns the sum of these terms for each point, a bound on
-|w_fast - w_exact| up to rounding (tests/test_kernels_winding.py checks it).
+|w_fast - w_exact| up to rounding (tests/test_kernels_points_winding.py checks it).
 """
 
 from __future__ import annotations

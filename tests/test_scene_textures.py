@@ -171,7 +171,7 @@ GOLDEN = [  # (assignment, command line after `raytracer`, fraction of pixels wi
     (6, "-input scene6_15_marble_cubes.txt -size 300 300 -output output6_15.tga", 1.0),
     (6, "-input scene6_16_wood_cubes.txt -size 300 300 -output output6_16.tga", 1.0),
     (6, "-input scene6_13_checkerboard.txt -size 200 200 -output output6_13.tga -shadows", 1.0),
-    # 7 horizon pixels: see test_film.py's note on scene7_02
+    # 7 horizon pixels: see test_rendering_film.py's note on scene7_02
     (7, "-input scene7_02_checkerboard.txt -size 180 180 -output output7_02.tga", 0.9995),
     # a checkerboard of two Wood textures at frequency 6: settles the wood's drift along its axis
     (7, "-input scene7_04_6.837_logo.txt -size 400 200 -output output7_04a.tga -shadows -shade_back -bounces 5 "

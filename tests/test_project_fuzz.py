@@ -3,7 +3,7 @@ success or one clean error (SceneError naming the file and a line inside it, Val
 message), never a traceback, a hang or an unchecked allocation.
 
 Bounded and derandomized by default (about a minute in all); `--hypothesis-profile=fuzz` (tests/conftest.py) runs
-thousands of random examples per test. Cases found are pinned in tests/test_bad_input.py or with @example.
+thousands of random examples per test. Cases found are pinned in tests/test_project_bad_input.py or with @example.
 """
 
 from __future__ import annotations

@@ -60,7 +60,7 @@ def _layer(module: str) -> int:
     parts = module.split(".")
     key = parts[1] if len(parts) > 1 else "__init__"
     if key not in LAYERS:
-        raise AssertionError(f"{module}: not in any layer of tests/test_architecture.py LAYERS")
+        raise AssertionError(f"{module}: not in any layer of tests/test_project_architecture.py LAYERS")
     return LAYERS[key]
 
 
@@ -117,3 +117,38 @@ def test_the_checker_sees_a_lazy_upward_import(tmp_path):
     fake.write_text("def f():\n    from ..rendering.renderer import render\n    return render\n")
     assert [t for _, t in _imports(fake, "durer.scene.probe")] == ["durer.rendering.renderer"]
     assert _layer("durer.rendering.renderer") > _layer("durer.scene.probe")
+
+
+TESTS = Path(__file__).resolve().parent
+
+
+def _module_paths() -> set[str]:
+    """'kernels_bvh_single', 'rendering', 'query', ... : every module and package as a test name would spell it."""
+    names = set()
+    for path in FILES:
+        parts = list(path.relative_to(SRC).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        for depth in range(1, len(parts) + 1):
+            names.add("_".join(parts[:depth]))
+    return names
+
+
+def test_test_files_are_named_after_what_they_test():
+    """One scheme: test_<folder>_<module>[_<aspect>].py for a module, test_project_<topic>.py for the whole pipeline
+    (course assignments, README, examples, fuzzing, architecture, real Mitsuba scenes)."""
+    modules = _module_paths()
+    stray = []
+    for path in sorted(TESTS.glob("test_*.py")):
+        words = path.stem.removeprefix("test_").split("_")
+        if words[0] == "project":
+            continue
+        if not any("_".join(words[:n]) in modules for n in range(1, len(words) + 1)):
+            stray.append(path.name)
+    assert not stray, f"test files not named after a module (see docs/DESIGN.md, Tests): {stray}"
+
+
+def test_every_kernel_concern_has_a_test_module():
+    concerns = [p.name for p in (SRC / "kernels").iterdir() if p.is_dir() and (p / "__init__.py").exists()]
+    missing = [c for c in concerns if not list(TESTS.glob(f"test_kernels_{c}*.py"))]
+    assert not missing, f"kernel concerns without tests/test_kernels_<concern>*.py: {missing}"
