@@ -71,8 +71,10 @@ def _number(v, what: str) -> float:
 
 
 def _alpha(v):
-    if isinstance(v, (Bitmap, Checker)):
-        return v
+    return _or_texture(v, _alpha_number)
+
+
+def _alpha_number(v) -> float:
     x = _number(v, "roughness alpha")
     if not (0 < x <= 4):
         raise ValueError(f"roughness alpha must be in (0, 4], got {v!r}")
@@ -85,9 +87,16 @@ def _distribution(v) -> str:
     return v
 
 
+def _or_texture(v, check, *args):
+    """A texture as given (a parameter Mitsuba takes as a texture), anything else through check(v, *args)."""
+    return v if isinstance(v, (Bitmap, Checker)) else check(v, *args)
+
+
 def _albedo(v, what: str):
-    if isinstance(v, (Bitmap, Checker)):
-        return v
+    return _or_texture(v, _albedo_rgb, what)
+
+
+def _albedo_rgb(v, what: str) -> np.ndarray:
     a = rgb(v, what)
     if a.min() < 0:
         raise ValueError(f"{what} must not be negative, got {a.tolist()}")
@@ -122,13 +131,15 @@ class Dielectric:
 @dataclass
 class Microfacet:
     """What the rough conductor and the rough dielectric share: anisotropic roughness (a number or a texture) and the
-    microfacet distribution, checked once here (a mixin: the smooth BSDF's fields come first)."""
+    microfacet distribution, checked once here after the smooth BSDF's own checks (a base listed first: the smooth
+    BSDF's fields come first, its __post_init__ is next in the MRO)."""
 
     alpha_u: float = 0.1
     alpha_v: float = 0.1
     distribution: str = "ggx"
 
-    def _check_microfacets(self) -> None:
+    def __post_init__(self):
+        super().__post_init__()
         self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
         self.distribution = _distribution(self.distribution)
 
@@ -137,10 +148,6 @@ class Microfacet:
 class RoughDielectric(Microfacet, Dielectric):
     """Rough glass (Mitsuba's `roughdielectric`): GGX or Beckmann microfacets reflecting and refracting (Walter et
     al. 2007), sampled from the visible normals."""
-
-    def __post_init__(self):
-        super().__post_init__()
-        self._check_microfacets()
 
 
 @dataclass
@@ -167,10 +174,6 @@ class Conductor:
 class RoughConductor(Microfacet, Conductor):
     """A rough metal: GGX (or Beckmann, Mitsuba's default) microfacets, anisotropic with alpha_u != alpha_v, Smith
     shadowing, sampled from the visible normals."""
-
-    def __post_init__(self):
-        super().__post_init__()
-        self._check_microfacets()
 
 
 @dataclass
@@ -279,8 +282,10 @@ def _constant(v, what: str):
 
 
 def _fraction(v, what: str):
-    if isinstance(v, (Bitmap, Checker)):
-        return v
+    return _or_texture(v, _unit_number, what)
+
+
+def _unit_number(v, what: str) -> float:
     x = _number(v, what)
     if not 0 <= x <= 1:
         raise ValueError(f"{what} must be in [0, 1], got {v!r}")

@@ -54,10 +54,10 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
     resolved; a slot with Mitsuba textures is looked up at (u, v) into work = (scratch table Q, first of its three
     rows) first, kernels/path/textures.resolve_row); miss = (radiance r, g, b, light pdf, is an emitter) for a ray
     that escaped (with an environment map, an emitter's radiance and pdf are the map's, looked up here); j the path's
-    row in L, sample, keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found light to L[j]; with
-    scalars[4] (features wanted) records the first non-specular hit's albedo and normal in aux = (tint, albedo,
-    normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid, origin, direction, t_max, contribution, and
-    next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
+    row in L, sample, keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found
+    light to L[j]; with scalars[4] (features wanted) records the first non-specular hit's albedo and normal in aux =
+    (tint, albedo, normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid, origin, direction, t_max,
+    contribution, and next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
     P, T, tex = bsdf
     TI, TD = tex
     gx, gy, gz, hx, hy, hz = normals
