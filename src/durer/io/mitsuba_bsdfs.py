@@ -42,6 +42,8 @@ def scalar(builder, node, p: Props, name: str, default):
     if tex is not None:
         return tex
     x = p.get(name, default, float)
+    if isinstance(x, (Bitmap, Checker)):  # alpha_u and alpha_v default to a textured alpha
+        return x
     return max(x, 1e-4) if name.startswith("alpha") and x >= 0 else x
 
 
