@@ -111,7 +111,7 @@ def _nested(builder, node, depth: int, count: int) -> list:
     """The `count` BSDFs nested in a wrapper plugin (its textures are named parameters, not nested BSDFs)."""
     inner = [c for c in node.children if builder.resolve(c).tag == "bsdf"]
     if len(inner) != count:
-        raise node.error(f"{node.type} needs exactly {count} nested bsdf{'s' if count > 1 else ''}")
+        raise node.error(f"{node.type} needs exactly {'one nested bsdf' if count == 1 else 'two nested bsdfs'}")
     for c in node.children:
         if c not in inner and (builder.resolve(c).tag != "texture" or not getattr(c, "used", True)):
             raise c.error(f"<{c.tag}> cannot appear in bsdf '{node.type}'")
