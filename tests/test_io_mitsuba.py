@@ -75,7 +75,7 @@ ERRORS = [
     ("<bsdf type=\"principled\" id=\"x\"/>", 3, "unsupported bsdf 'principled'"),
     ("<emitter type=\"spot\"/>", 3, "unsupported emitter 'spot'"),
     ("<integrator type=\"volpath\"/>", 3, "unsupported integrator 'volpath'"),
-    ("<texture type=\"bitmap\"/>", 3, "unsupported texture 'bitmap'"),
+    ("<texture type=\"voronoi\"/>", 3, "unsupported texture 'voronoi'"),
     ("<shape type=\"sphere\">\n<float name=\"radius\" value=\"1\"/>\n<float name=\"size\" value=\"2\"/></shape>", 5,
      "unsupported parameter 'size' of shape 'sphere'"),
     ("<shape type=\"sphere\"><bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/>"
@@ -90,8 +90,10 @@ ERRORS = [
     ("<bsdf type=\"twosided\" id=\"t\"/>", 3, "twosided needs exactly one nested bsdf"),
     ("<shape type=\"cube\"><transform name=\"to_world\">\n<shear value=\"1\"/></transform></shape>", 4,
      "unsupported transform element <shear>"),
-    ("<bsdf type=\"diffuse\" id=\"d\">\n<texture type=\"bitmap\" name=\"reflectance\"/></bsdf>", 4,
-     "unsupported texture 'bitmap' for reflectance of bsdf 'diffuse'"),
+    ("<bsdf type=\"diffuse\" id=\"d\">\n<texture type=\"bitmap\" name=\"reflectance\">\n"
+     "<string name=\"filename\" value=\"none.png\"/></texture></bsdf>", 5, "texture image not found: none.png"),
+    ("<bsdf type=\"diffuse\" id=\"d\">\n<texture type=\"checkerboard\" name=\"albedo\"/></bsdf>", 4,
+     "<texture> 'albedo' cannot appear in bsdf 'diffuse'"),
     ("<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"2.5\"/></integrator>", 4, "not an integer"),
     ("<shape type=\"sphere\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"unobtainium\"/></bsdf>"
      "</shape>", 3, "unknown int_ior 'unobtainium'"),

@@ -15,7 +15,7 @@ from durer.io.mitsuba import load_dict, load_mitsuba
 from durer.io.serialized import read_serialized
 from durer.io.spectra import spectrum_to_rgb
 from durer.scene.bsdfs import Conductor, Diffuse, TwoSided
-from durer.scene.textures import UVCheckerboard
+from durer.scene.textures import Checker
 
 CAM = ('<sensor type="perspective"><float name="fov" value="40"/>'
        '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film></sensor>')
@@ -165,16 +165,19 @@ def test_checkerboard_on_a_bsdf_parameter(tmp_path):
             '<shape type="rectangle"><bsdf type="twosided"><bsdf type="diffuse"><ref name="reflectance" id="c"/>'
             '</bsdf></bsdf></shape>')
     s = load_mitsuba(str(scene(tmp_path, body)))
-    tex = s.materials[s.group.objects[0].object.material]
-    assert isinstance(tex, UVCheckerboard) and np.allclose(tex.to_uv, np.diag([8.0, 4.0, 1.0]))
-    assert np.allclose(s.materials[tex.material1].bsdf.bsdf.reflectance, 0.4)
-    assert np.allclose(s.materials[tex.material2].bsdf.bsdf.reflectance, 0.2)
-    from durer.rendering.texturing import blend_weight
+    tex = s.materials[s.group.objects[0].object.material].bsdf.bsdf.reflectance
+    assert isinstance(tex, Checker) and np.allclose(tex.to_uv, np.diag([8.0, 4.0, 1.0]))
+    assert np.allclose(tex.color0, 0.4) and np.allclose(tex.color1, 0.2)
+    from durer.rendering.textures import TextureTable
 
     uv = np.array([[0.01, 0.01], [0.07, 0.01], [0.07, 0.13], [0.2, 0.2]])  # scaled: (.08,.04) (.56,.04) ...
-    assert blend_weight(tex, np.zeros((4, 3)), uv).tolist() == [0.0, 1.0, 0.0, 0.0]
-    with pytest.raises(SceneError, match="unsupported texture 'bitmap' for reflectance"):
+    table = TextureTable()
+    assert np.allclose(table.eval3(table.add(tex), uv)[:, 0], [0.4, 0.2, 0.4, 0.4])
+    with pytest.raises(SceneError, match="bitmap needs a filename"):
         load_mitsuba(str(scene(tmp_path, '<shape type="rectangle"><bsdf type="diffuse"><texture type="bitmap" '
+                                         'name="reflectance"/></bsdf></shape>')))
+    with pytest.raises(SceneError, match="unsupported texture 'voronoi'"):
+        load_mitsuba(str(scene(tmp_path, '<shape type="rectangle"><bsdf type="diffuse"><texture type="voronoi" '
                                          'name="reflectance"/></bsdf></shape>')))
     with pytest.raises(SceneError, match="no texture coordinates"):
         load_mitsuba(str(scene(tmp_path, body.replace('type="rectangle"', 'type="sphere"'))))

@@ -202,11 +202,84 @@ def save_image(path: str, data: np.ndarray, *, course: bool = False) -> None:
     write_atomic(path, lambda f: image.save(f, format=fmt, **SAVE_ARGS.get(fmt, {})))
 
 
+def read_texture(path: str, raw: bool = False) -> np.ndarray:
+    """A texture image (H, W, 1 or 3) float32 of linear values: 8- and 16-bit images (PNG, JPEG, ... through
+    Pillow) sRGB-decoded unless `raw`, grey ones (with or without alpha) one channel, alpha dropped; float images
+    (.exr, .hdr, .pfm, .npy) as stored. ValueError naming the problem."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext in (".exr", ".hdr", ".pfm", ".npy"):
+        img = read_hdr(path)
+        return (img[..., :1] if img.ndim == 3 and img.shape[2] in (1, 2) else
+                img[..., :3] if img.ndim == 3 else img[..., None]).astype(np.float32)
+    try:
+        with Image.open(path) as im:
+            im.load()
+            grey = im.mode in ("L", "LA", "I;16", "I", "1", "F")
+            if im.mode in ("I;16", "I;16B", "I;16L", "I"):
+                data = np.asarray(im, dtype=np.float64) / 65535.0
+            elif im.mode == "F":
+                data = np.asarray(im, dtype=np.float64)
+            else:
+                data = np.asarray(im.convert("L" if grey else "RGB"), dtype=np.float64) / 255.0
+    except (OSError, ValueError) as e:
+        raise ValueError(f"cannot read image '{path}': {e}") from None
+    if data.ndim == 2:
+        data = data[:, :, None]
+    if not raw:
+        data = np.where(data <= 0.04045, data / 12.92, ((data + 0.055) / 1.055) ** 2.4)
+    return data.astype(np.float32)
+
+
+def _read_rgbe(f) -> np.ndarray:
+    """Radiance RGBE pixels (H, W, 3) float64 from an open .hdr file: its header, then flat or run-length encoded
+    scanlines (Ward's format; -Y H +X W orientation)."""
+    if not f.readline().startswith(b"#?"):
+        raise ValueError("not a Radiance file")
+    while True:
+        line = f.readline()
+        if not line:
+            raise ValueError("no resolution line")
+        if line.strip() == b"":
+            break
+        if line.startswith(b"FORMAT=") and b"32-bit_rle_rgbe" not in line:
+            raise ValueError(f"unsupported {line.strip().decode(errors='replace')}")
+    size = f.readline().split()
+    if len(size) != 4 or size[0] != b"-Y" or size[2] != b"+X":
+        raise ValueError("durer reads .hdr files of -Y H +X W orientation")
+    h, w = int(size[1]), int(size[3])
+    buf = np.frombuffer(f.read(), dtype=np.uint8)
+    out, pos = np.zeros((h, w, 4), np.uint8), 0
+    for y in range(h):
+        if 8 <= w < 32768 and pos + 4 <= len(buf) and buf[pos] == 2 and buf[pos + 1] == 2 and buf[pos + 2] < 128:
+            pos += 4  # new-style RLE: each of the 4 components run-length coded in turn
+            for c in range(4):
+                x = 0
+                while x < w:
+                    n = int(buf[pos])
+                    if n > 128:
+                        out[y, x:x + n - 128, c] = buf[pos + 1]
+                        x, pos = x + n - 128, pos + 2
+                    else:
+                        out[y, x:x + n, c] = buf[pos + 1:pos + 1 + n]
+                        x, pos = x + n, pos + 1 + n
+                    if n == 0 or x > w:
+                        raise ValueError("bad run-length data")
+        else:
+            out[y] = buf[pos:pos + 4 * w].reshape(w, 4)
+            pos += 4 * w
+    e = out[..., 3].astype(np.int32)
+    scale = np.where(e > 0, np.ldexp(1.0, e - 136), 0.0)
+    return out[..., :3] * scale[..., None]
+
+
 def read_hdr(path: str) -> np.ndarray:
-    """A float image (H, W, C) from .exr (openexr), .pfm or .npy: environment maps. Raises ValueError naming the
-    problem (unknown extension, unreadable file, no RGB channels)."""
+    """A float image (H, W, C) from .exr (openexr), .hdr (Radiance RGBE), .pfm or .npy: environment maps. Raises
+    ValueError naming the problem (unknown extension, unreadable file, no RGB channels)."""
     ext = os.path.splitext(path)[1].lower()
     try:
+        if ext == ".hdr":
+            with open(path, "rb") as f:
+                return _read_rgbe(f)
         if ext == ".npy":
             return np.asarray(np.load(path), dtype=np.float64)
         if ext == ".pfm":
@@ -226,6 +299,6 @@ def read_hdr(path: str) -> np.ndarray:
                 if all(k in ch for k in "RGB"):
                     return np.stack([np.asarray(ch[k].pixels, dtype=np.float64) for k in "RGB"], axis=-1)
                 raise ValueError(f"no RGB channels (found {', '.join(ch)})")
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, IndexError) as e:
         raise ValueError(f"cannot read image '{path}': {e}") from None
-    raise ValueError(f"cannot read image '{path}': use .exr, .pfm or .npy for an environment map")
+    raise ValueError(f"cannot read image '{path}': use .exr, .hdr, .pfm or .npy for an environment map")

@@ -1,61 +1,99 @@
-"""Mitsuba 3 BSDF plugins -> scene/bsdfs.py descriptions, and the parameters that Mitsuba lets be a texture
-(a colour or a number given as <rgb>, <spectrum>, <float>, or a nested or referenced <texture>).
-
-A `checkerboard` texture on one parameter of a BSDF becomes `Checkered`: the BSDF built twice, with color0 and
-with color1, which the shape turns into a UVCheckerboard blend of the two (scene/textures.py). Other textures are
-a SceneError naming them."""
+"""Mitsuba 3 BSDF and texture plugins -> scene/bsdfs.py and scene/textures.py descriptions, and the parameters that
+Mitsuba lets be a texture (a colour or a number given as <rgb>, <spectrum>, <float>, or a nested or referenced
+<texture>: `bitmap` or `checkerboard`, which the path tracer looks up per hit)."""
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..scene import bsdfs as B
-from .mitsuba_tree import Node, Props, call
+from ..scene.textures import Bitmap, Checker
+from .images import read_texture
+from .mitsuba_tree import Props, call
 
 BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic", "roughplastic",
-         "twosided")
+         "twosided", "blendbsdf", "mask", "normalmap", "bumpmap")
+TEXTURES = ("bitmap", "checkerboard")
 
 
 def _texture(builder, node, name: str):
-    """A nested or referenced plugin given for parameter `name`: a texture, which durer does not render yet."""
+    """The texture given for parameter `name` as a nested or referenced plugin, or None."""
     for child in node.children:
         if child.name == name:
             target = builder.resolve(child)
             if target.tag != "texture":
                 raise child.error(f"{name} of {node.tag} '{node.type}' must be a colour or a texture, not a "
                                   f"<{target.tag}>")
-            raise target.error(f"unsupported texture '{target.type}' for {name} of {node.tag} '{node.type}' "
-                               "(durer's path tracer has no textures yet)")
+            child.used = True
+            return build_texture(builder, target)
+    return None
 
 
 def colour(builder, node, p: Props, name: str, default):
-    """A colour parameter (a number, rgb or spectrum); a texture in its place is a SceneError."""
-    _texture(builder, node, name)
-    return p.get(name, default, "colour")
+    """A colour parameter: a number, rgb or spectrum, or a texture."""
+    tex = _texture(builder, node, name)
+    return tex if tex is not None else p.get(name, default, "colour")
 
 
 def scalar(builder, node, p: Props, name: str, default):
     """A number parameter that Mitsuba accepts as a texture (roughness alpha, which Mitsuba's microfacet
-    distributions raise to at least 1e-4)."""
-    _texture(builder, node, name)
+    distributions raise to at least 1e-4; a blend's weight; a mask's opacity)."""
+    tex = _texture(builder, node, name)
+    if tex is not None:
+        return tex
     x = p.get(name, default, float)
+    if isinstance(x, (Bitmap, Checker)):  # alpha_u and alpha_v default to a textured alpha
+        return x
     return max(x, 1e-4) if name.startswith("alpha") and x >= 0 else x
 
 
-@dataclass
-class Checkered:
-    """A BSDF with a checkerboard on one parameter: the BSDF with color0 (bsdf0) and with color1 (bsdf1), and the
-    checkerboard's to_uv (3x3)."""
+def build_texture(builder, node):
+    """A Bitmap or Checker for a texture plugin (built once, so references share it)."""
+    cached = getattr(node, "_built", None)
+    if cached is not None:
+        return cached
+    p = Props(node)
+    m = p.get("to_uv", np.eye(4), "matrix")
+    to_uv = m[np.ix_([0, 1, 3], [0, 1, 3])]
+    if node.type == "checkerboard":
+        out = call(node, Checker, colour(builder, node, p, "color0", 0.4), colour(builder, node, p, "color1", 0.2),
+                   to_uv)
+        if isinstance(out.color0, (Bitmap, Checker)) or isinstance(out.color1, (Bitmap, Checker)):
+            raise node.error("durer's checkerboard takes constant colours")
+    elif node.type == "bitmap":
+        filename = p.get("filename", None, str)
+        if not filename:
+            raise node.error("bitmap needs a filename")
+        path = builder.file(node, filename, p.where("filename"), "texture image")
+        raw = p.get("raw", False, bool)
+        try:
+            image = read_texture(path, raw)
+        except ValueError as e:
+            raise node.error(str(e), p.where("filename")) from None
+        out = call(node, Bitmap, image, p.get("filter_type", "bilinear", str), p.get("wrap_mode", "repeat", str), to_uv)
+        p.get("format", None, str)  # Mitsuba's storage precision (float16/32): durer keeps float32
+    else:
+        raise node.error(f"unsupported texture '{node.type}' (durer reads {', '.join(TEXTURES)})")
+    p.done()
+    if node.children and node.type == "bitmap":
+        raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in a bitmap")
+    for child in node.children:
+        if child.name not in ("color0", "color1"):
+            raise child.error(f"<{child.tag}> cannot appear in a checkerboard")
+    node._built = out
+    return out
 
-    bsdf0: object
-    bsdf1: object
-    to_uv: np.ndarray
+
+def textured(bsdf) -> bool:
+    """Does a BSDF description (or a Surface) read a texture, so that its shape needs texture coordinates?"""
+    if isinstance(bsdf, (Bitmap, Checker)):
+        return True
+    fields = getattr(bsdf, "__dataclass_fields__", None)
+    return fields is not None and any(textured(getattr(bsdf, f)) for f in fields)
 
 
 def build_bsdf(builder, node, depth: int = 0):
-    """A BSDF description or a Checkered pair (a ref resolved); each node is built once so shared refs share it."""
+    """A BSDF description (a ref resolved); each node is built once so shared refs share it."""
     node = builder.resolve(node)
     if node.tag != "bsdf":
         raise node.error(f"expected a bsdf, found <{node.tag}>")
@@ -63,40 +101,47 @@ def build_bsdf(builder, node, depth: int = 0):
     if cached is not None:
         return cached
     builder.enter(node, depth)
-    textured = [c for c in node.children if c.name is not None and builder.resolve(c).tag == "texture"]
-    if not textured:
-        out = _bsdf(builder, node, depth)
-    else:
-        if len(textured) > 1:
-            raise textured[1].error(f"bsdf '{node.type}': durer renders one textured parameter per bsdf")
-        child = textured[0]
-        to_uv, colours = _checkerboard(builder, builder.resolve(child), child.name, node)
-        rest = [c for c in node.children if c is not child]
-        variants = [_bsdf(builder, Node(node.tag, node.type, node.where, None, node.name,
-                                        {**node.props, child.name: (c, child.where)}, rest), depth)
-                    for c in colours]
-        out = Checkered(variants[0], variants[1], to_uv)
+    out = _bsdf(builder, node, depth)
     builder.leave(node)
     node._built = out
     return out
 
 
-def _checkerboard(builder, tex, name: str, bsdf) -> tuple[np.ndarray, list]:
-    """A checkerboard texture's to_uv (the 2D affine part of its 4x4) and its two values for parameter `name`."""
-    if tex.type != "checkerboard":
-        raise tex.error(f"unsupported texture '{tex.type}' for {name} of bsdf '{bsdf.type}' (durer renders "
-                        "checkerboard textures)")
-    p = Props(tex)
-    colours = [colour(builder, tex, p, "color0", 0.4), colour(builder, tex, p, "color1", 0.2)]
-    m = p.get("to_uv", np.eye(4), "matrix")
-    p.done()
-    if tex.children:
-        raise tex.children[0].error(f"<{tex.children[0].tag}> cannot appear in a checkerboard")
-    if name in ("alpha", "alpha_u", "alpha_v"):  # a number: the texture must be grey
-        if any(not np.allclose(c, c.flat[0]) for c in colours):
-            raise tex.error(f"{name} takes a grey checkerboard (one number per colour)")
-        colours = [float(c.flat[0]) for c in colours]
-    return m[np.ix_([0, 1, 3], [0, 1, 3])], colours
+def _nested(builder, node, depth: int, count: int) -> list:
+    """The `count` BSDFs nested in a wrapper plugin (its textures are named parameters, not nested BSDFs)."""
+    inner = [c for c in node.children if builder.resolve(c).tag == "bsdf"]
+    if len(inner) != count:
+        raise node.error(f"{node.type} needs exactly {'one nested bsdf' if count == 1 else 'two nested bsdfs'}")
+    for c in node.children:
+        if c not in inner and (builder.resolve(c).tag != "texture" or not getattr(c, "used", True)):
+            raise c.error(f"<{c.tag}> cannot appear in bsdf '{node.type}'")
+    return [build_bsdf(builder, c, depth + 1) for c in inner]
+
+
+def _wrapper(builder, node, p: Props, depth: int):
+    """blendbsdf, mask, normalmap, bumpmap and twosided: plugins around nested BSDFs."""
+    t = node.type
+    if t == "blendbsdf":
+        weight = scalar(builder, node, p, "weight", 0.5)
+        return call(node, B.Blend, *_nested(builder, node, depth, 2), weight)
+    if t == "mask":
+        opacity = scalar(builder, node, p, "opacity", 0.5)
+        return call(node, B.Mask, _nested(builder, node, depth, 1)[0], opacity)
+    if t == "normalmap":
+        tex = _texture(builder, node, "normalmap")
+        if tex is None:
+            raise node.error("normalmap needs a texture named normalmap")
+        return call(node, B.NormalMap, _nested(builder, node, depth, 1)[0], tex)
+    if t == "bumpmap":
+        tex = next((build_texture(builder, builder.resolve(c)) for c in node.children
+                    if builder.resolve(c).tag == "texture"), None)
+        if tex is None:
+            raise node.error("bumpmap needs a nested texture")
+        return call(node, B.BumpMap, _nested(builder, node, depth, 1)[0], tex, p.get("scale", 1.0, float))
+    inner = _nested(builder, node, depth, 1)  # twosided
+    if len(node.children) != 1:
+        raise node.error("twosided needs exactly one nested bsdf (durer has no different back side)")
+    return call(node, B.TwoSided, inner[0])
 
 
 def _bsdf(builder, node, depth: int):
@@ -104,6 +149,10 @@ def _bsdf(builder, node, depth: int):
     t = node.type
     if t not in BSDFS:
         raise node.error(f"unsupported bsdf '{t}' (durer renders {', '.join(BSDFS)})")
+    if t in ("twosided", "blendbsdf", "mask", "normalmap", "bumpmap"):
+        out = _wrapper(builder, node, p, depth)
+        p.done()
+        return out
     rough = t in ("roughconductor", "roughplastic", "roughdielectric")
     if rough:
         dist = p.get("distribution", "beckmann", str)
@@ -142,15 +191,8 @@ def _bsdf(builder, node, depth: int):
                 colour(builder, node, p, "specular_reflectance", 1.0),
                 p.get("int_ior", 1.49, "ior"), p.get("ext_ior", 1.000277, "ior"), p.get("nonlinear", False, bool))
         out = call(node, B.RoughPlastic, *args, alpha, dist) if rough else call(node, B.Plastic, *args)
-    else:  # twosided
-        if len(node.children) != 1:
-            raise node.error("twosided needs exactly one nested bsdf (durer has no different back side)")
-        inner = build_bsdf(builder, node.children[0], depth + 1)
-        if isinstance(inner, Checkered):
-            out = Checkered(call(node, B.TwoSided, inner.bsdf0), call(node, B.TwoSided, inner.bsdf1), inner.to_uv)
-        else:
-            out = call(node, B.TwoSided, inner)
-    if t != "twosided" and node.children:
-        raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in bsdf '{t}'")
+    for c in node.children:
+        if builder.resolve(c).tag != "texture" or not getattr(c, "used", False):
+            raise c.error(f"<{c.tag}> '{c.name}' cannot appear in bsdf '{t}'")
     p.done()
     return out

@@ -14,7 +14,7 @@ from ..scene.cameras import OrthographicCamera, PerspectiveCamera
 from ..scene.graph import Group, Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
 from .images import read_hdr
-from .mitsuba_bsdfs import build_bsdf, colour
+from .mitsuba_bsdfs import build_bsdf, build_texture, colour
 from .mitsuba_shapes import DISK_SEGMENTS, build_shape  # noqa: F401  (DISK_SEGMENTS: README's known differences)
 from .mitsuba_tree import Props, call
 from .mitsuba_xml import MAX_DEPTH
@@ -107,7 +107,7 @@ class Builder:
         return build_bsdf(self, node, depth)
 
     def texture(self, node):
-        raise node.error(f"unsupported texture '{node.type}' (durer's path tracer has no textures yet)")
+        build_texture(self, node)  # checked; without an id nothing can use it (Mitsuba ignores it too)
 
     def shape(self, node) -> None:
         build_shape(self, node)
@@ -311,7 +311,7 @@ class Builder:
         scale = p.get("scale", 1.0, float)
         m = p.get("to_world", np.eye(4), "matrix")
         if not filename:
-            raise node.error("envmap needs a filename (.exr, .pfm or .npy)")
+            raise node.error("envmap needs a filename (.exr, .hdr, .pfm or .npy)")
         r = m[:3, :3]
         if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
             raise node.error("envmap to_world must be a rotation")

@@ -12,9 +12,8 @@ import numpy as np
 from ..scene import bsdfs as B
 from ..scene.graph import Group, Transform
 from ..scene.shapes import Sphere, TriangleMesh
-from ..scene.textures import UVCheckerboard
 from .files import read_bytes
-from .mitsuba_bsdfs import Checkered
+from .mitsuba_bsdfs import textured
 from .mitsuba_tree import Props, call
 from .serialized import read_serialized
 
@@ -67,18 +66,10 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
             radiance = builder.emitter(child, shape=node)
         else:
             raise child.error(f"<{child.tag}> cannot appear in a shape")
-    if isinstance(bsdf, Checkered):
-        if radiance is not None:
-            raise node.error("durer cannot render a textured bsdf on an emitting shape")
-        if getattr(geometry, "uvs", None) is None:
-            raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's checkerboard (durer has them for "
-                             "meshes with UVs and rectangles)")
-        first = len(builder.materials)
-        builder.materials += [call(node, B.Surface, bsdf.bsdf0, None, flip),
-                              call(node, B.Surface, bsdf.bsdf1, None, flip),
-                              call(node, UVCheckerboard, first, first + 1, bsdf.to_uv)]
-    else:
-        builder.materials.append(call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip))
+    if textured(bsdf) and getattr(geometry, "uvs", None) is None:
+        raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's textures (durer has them for "
+                         "meshes with UVs and rectangles)")
+    builder.materials.append(call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip))
     geometry.material = len(builder.materials) - 1
     out.append(Transform(m, geometry))
 

@@ -31,10 +31,14 @@ from ..kernels.path.bsdf import (
     AV,
     BECKMANN,
     BLACK,
+    BLEND,
+    BUMP_SCALE,
     C1,
     C2,
     C3,
     C4,
+    CHILD0,
+    CHILD1,
     COLUMNS,
     CONDUCTOR,
     DIELECTRIC,
@@ -46,6 +50,7 @@ from ..kernels.path.bsdf import (
     FLIP,
     KIND,
     NONLINEAR,
+    OPACITY,
     PHONG,
     PLASTIC,
     ROUGHCONDUCTOR,
@@ -53,15 +58,22 @@ from ..kernels.path.bsdf import (
     ROUGHPLASTIC,
     SMOOTH,
     SPEC_WEIGHT,
+    TEX_C1,
+    TEXTURED,
+    TROW,
     TWOSIDED,
-    eval_kernel,
-    sample_kernel,
+    WEIGHT,
 )
+from ..kernels.path.compose import eval_kernel, sample_kernel
 from ..kernels.path.microfacet import rough_albedo_kernel
 from ..scene.bsdfs import (
+    Blend,
+    BumpMap,
     Conductor,
     Dielectric,
     Diffuse,
+    Mask,
+    NormalMap,
     Plastic,
     RoughConductor,
     RoughDielectric,
@@ -70,7 +82,11 @@ from ..scene.bsdfs import (
     TwoSided,
 )
 from ..scene.materials import PhongMaterial
+from ..scene.textures import Bitmap, Checker
+from .textures import TextureTable, mean
 
+# the textured parameters, in the order of the TEX_* columns (kernels/path/bsdf.py)
+TEXTURED_PARAMS = ("c1", "c2", "alpha_u", "alpha_v", "opacity", "weight", "emission", "normalmap", "bump")
 ROUGH_RES = 64  # cos(theta) samples of the rough plastic's transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
 
 
@@ -100,26 +116,41 @@ class BSDFTable:
     emission: np.ndarray = field(default_factory=_z3)  # front-side radiance of each slot (0: not a light)
     flip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     is_texture: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    opacity: np.ndarray = field(default_factory=lambda: np.zeros(0))      # Mitsuba's mask (1: opaque)
+    weight: np.ndarray = field(default_factory=lambda: np.zeros(0))       # a blend's weight of child1
+    child0: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # a blend's rows (after the slots)
+    child1: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    tex: np.ndarray = field(default_factory=lambda: np.zeros((0, len(TEXTURED_PARAMS)), np.int64))  # ids or -1
+    bump_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    textures: TextureTable = field(default_factory=TextureTable)
     _packed: tuple | None = None
 
     @classmethod
     def from_materials(cls, materials: list) -> BSDFTable:
         """One row per scene material: Surface, a bare BSDF, a course PhongMaterial or a solid texture (a
-        texture's row is a placeholder: the integrator resolves it into the materials it blends)."""
-        rows = [_row(m) for m in materials]
-        t = cls()
+        texture's row is a placeholder: the integrator resolves it into the materials it blends); then the rows of
+        blends' two BSDFs. Textured parameters name their texture in `textures` and hold its mean."""
+        textures = TextureTable()
+        rows = [_row(m, textures) for m in materials]
+        for r in list(rows):
+            for k, child in enumerate(r.pop("children")):
+                r[f"child{k}"] = len(rows)
+                rows.append(_row(child, textures))
+                rows[-1].pop("children")
+        t = cls(textures=textures)
         for name in rows[0] if rows else {}:
             setattr(t, name, np.array([r[name] for r in rows]))
         t.kind = t.kind.astype(np.int8)
+        t.tex = t.tex.reshape(len(rows), len(TEXTURED_PARAMS))
         return t
 
     def smooth(self, slot: np.ndarray) -> np.ndarray:
         """(N,) bool: has the BSDF a non-delta lobe, so that light sampling can reach it?"""
         return self.packed()[0][slot, SMOOTH] != 0
 
-    def packed(self) -> tuple[np.ndarray, np.ndarray]:
-        """The table as kernels/path/bsdf.py reads it: one float64 row per slot (its column layout) and the rough
-        plastics' transmittance tables; made once."""
+    def packed(self) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        """The table as kernels/path/bsdf.py reads it: one float64 row per slot (its column layout), the rough
+        plastics' transmittance tables and the texture table (TI, TD); made once."""
         if self._packed is None:
             n = len(self.kind)
             P = np.zeros((n, COLUMNS))
@@ -128,35 +159,55 @@ class BSDFTable:
             for col, value in ((KIND, self.kind), (TWOSIDED, self.twosided), (NONLINEAR, self.nonlinear),
                                (FLIP, self.flip), (ETA, self.eta), (AU, self.alpha_u), (AV, self.alpha_v),
                                (EXPONENT, self.exponent), (SPEC_WEIGHT, self.spec_weight), (FDR_INT, self.fdr_int),
-                               (BECKMANN, self.beckmann)):
+                               (BECKMANN, self.beckmann), (OPACITY, self.opacity), (WEIGHT, self.weight),
+                               (CHILD0, self.child0), (CHILD1, self.child1), (BUMP_SCALE, self.bump_scale)):
                 P[:, col] = value
+            P[:, TROW] = np.arange(n)
+            P[:, TEX_C1:TEX_C1 + len(TEXTURED_PARAMS)] = self.tex
+            textured = (self.tex >= 0).any(axis=1)
+            blend = self.kind == BLEND
+            textured[blend] |= textured[self.child0[blend]] | textured[self.child1[blend]]
+            P[:, TEXTURED] = textured
             smooth = ~np.isin(self.kind, (DIELECTRIC, CONDUCTOR, BLACK))
             phong = self.kind == PHONG
             smooth[phong] = (self.c1[phong].max(1) > 0) | (self.c2[phong].max(1) > 0)
+            smooth[blend] = smooth[self.child0[blend]] | smooth[self.child1[blend]]
             P[:, SMOOTH] = smooth
-            self._packed = P, np.ascontiguousarray(self.transmittance.reshape(n, ROUGH_RES), dtype=np.float64)
+            self._packed = (P, np.ascontiguousarray(self.transmittance.reshape(n, ROUGH_RES), dtype=np.float64),
+                            self.textures.packed())
         return self._packed
 
 
-def _row(m) -> dict:
+def _row(m, textures: TextureTable) -> dict:
     r = dict(kind=BLACK, twosided=False, c1=np.zeros(3), c2=np.zeros(3), c3=np.zeros(3), c4=np.zeros(3), eta=1.0,
              alpha_u=0.1, alpha_v=0.1, exponent=1.0, spec_weight=0.0, fdr_int=0.0, nonlinear=False,
-             transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False, beckmann=False)
+             transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False, beckmann=False,
+             opacity=1.0, weight=0.0, child0=0, child1=0, tex=np.full(len(TEXTURED_PARAMS), -1), bump_scale=0.0,
+             children=())
     if isinstance(m, Surface):
         if m.radiance is not None:
             r["emission"] = m.radiance
         r["flip"] = m.flip_normals
         m = m.bsdf
-    if isinstance(m, TwoSided):
-        r["twosided"] = True
+    while isinstance(m, (Mask, NormalMap, BumpMap, TwoSided)):  # modifiers of one row, in any order
+        if isinstance(m, Mask):
+            r["opacity"] = m.opacity
+        elif isinstance(m, NormalMap):
+            r["normalmap"] = m.normalmap
+        elif isinstance(m, BumpMap):
+            r["bump"], r["bump_scale"] = m.texture, m.scale
+        else:
+            r["twosided"] = True
         m = m.bsdf
     if m is None:
-        return r
+        return _textures(r, textures)
     if isinstance(m, PhongMaterial):
         lobes = np.array([m.diffuse_color, m.specular_color, m.reflective_color, m.transparent_color])
         lobes = lobes / max(1.0, float(lobes.sum(axis=0).max()))  # energy conservation (module docstring)
         r.update(kind=PHONG, c1=lobes[0], c2=lobes[1], c3=lobes[2], c4=lobes[3], eta=m.index_of_refraction,
                  exponent=m.exponent)
+    elif isinstance(m, Blend):
+        r.update(kind=BLEND, weight=m.weight, children=(m.bsdf0, m.bsdf1))
     elif isinstance(m, Diffuse):
         r.update(kind=DIFFUSE, c1=m.reflectance)
     elif isinstance(m, RoughDielectric):
@@ -170,7 +221,8 @@ def _row(m) -> dict:
             r.update(kind=ROUGHCONDUCTOR, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")
     elif isinstance(m, Plastic):
         eta = m.int_ior / m.ext_ior
-        d_mean, s_mean = m.diffuse_reflectance.mean(), m.specular_reflectance.mean()
+        # Mitsuba weighs the lobes' sampling by the textures' means
+        d_mean, s_mean = mean(m.diffuse_reflectance).mean(), mean(m.specular_reflectance).mean()
         r.update(kind=PLASTIC, c1=m.diffuse_reflectance, c2=m.specular_reflectance, eta=eta, nonlinear=m.nonlinear,
                  spec_weight=s_mean / (d_mean + s_mean), fdr_int=fresnel_diffuse_reflectance(1.0 / eta))
         if isinstance(m, RoughPlastic):
@@ -181,6 +233,18 @@ def _row(m) -> dict:
                      fdr_int=2.0 * np.mean(_rough_albedo(mu, m.alpha, 1.0 / eta, transmit=False, beckmann=b) * mu))
     else:
         r["is_texture"] = True  # a solid texture: resolved per hit into the materials it blends
+    return _textures(r, textures)
+
+
+def _textures(r: dict, textures: TextureTable) -> dict:
+    """Move each texture out of row r into the texture table: its id in r["tex"], its mean in the constant
+    column (what Mitsuba's sampling weights read)."""
+    for k, name in enumerate(TEXTURED_PARAMS):
+        v = r.pop(name, None) if name in ("normalmap", "bump") else r[name]
+        if isinstance(v, (Bitmap, Checker)):
+            r["tex"][k] = textures.add(v)
+            if name in r:
+                r[name] = mean(v) if name in ("c1", "c2", "emission") else float(v.mean)
     return r
 
 
@@ -205,24 +269,31 @@ def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: i
 
 
 # --- evaluation and sampling: the Numba kernels of kernels/path/bsdf.py ------------------------------------------
-def eval_pdf(t: BSDFTable, slot: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """f(wi, wo) * cos(theta_o) (N,3) and the pdf (N,) with which `sample` would pick wo (delta lobes excluded)."""
+def eval_pdf(t: BSDFTable, slot: np.ndarray, wi: np.ndarray, wo: np.ndarray,
+             uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """f(wi, wo) * cos(theta_o) (N,3) and the pdf (N,) with which `sample` would pick wo (delta lobes excluded);
+    textures looked up at uv (N,2) (default 0)."""
     n = len(slot)
     value, pdf = np.zeros((n, 3)), np.zeros(n)
-    P, T = t.packed()
-    eval_kernel(P, T, _i64(slot), _f64(wi), _f64(wo), value, pdf)
+    P, T, tex = t.packed()
+    eval_kernel(P, T, tex, _i64(slot), _uv(uv, n), _f64(wi), _f64(wo), value, pdf)
     return value, pdf
 
 
-def sample(t: BSDFTable, slot: np.ndarray, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray):
+def sample(t: BSDFTable, slot: np.ndarray, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
+           uv: np.ndarray | None = None):
     """Sample wo for each ray: returns wo (N,3), weight = f cos / pdf (N,3; 0 where nothing was sampled), pdf (N,),
     delta (N,) bool (a specular lobe was picked) and eta (N,) (relative index crossed, 1 for reflection)."""
     n = len(slot)
     wo, weight, pdf = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
     delta, eta = np.zeros(n, bool), np.ones(n)
-    P, T = t.packed()
-    sample_kernel(P, T, _i64(slot), _f64(wi), _f64(u1), _f64(u2), wo, weight, pdf, delta, eta)
+    P, T, tex = t.packed()
+    sample_kernel(P, T, tex, _i64(slot), _uv(uv, n), _f64(wi), _f64(u1), _f64(u2), wo, weight, pdf, delta, eta)
     return wo, weight, pdf, delta, eta
+
+
+def _uv(uv, n: int) -> np.ndarray:
+    return np.zeros((n, 2)) if uv is None else _f64(np.broadcast_to(uv, (n, 2)))
 
 
 def _i64(a) -> np.ndarray:

@@ -20,7 +20,6 @@ import threading
 
 import numpy as np
 
-from ..kernels.common import TRIANGLE
 from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
@@ -51,7 +50,8 @@ class PathTracer:
         self._surfaces = tuple(np.ascontiguousarray(a) for a in (
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
-            flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3))))
+            flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3)),
+            np.asarray(flat.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
         # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators,
         # instances and solid textures take the unfused wavefront of closest_hit / any_hit queries
@@ -174,6 +174,7 @@ class PathTracer:
         thr, eta = np.ones((n, 3)), np.ones(n)
         prev = np.column_stack([np.ones(n), np.ones(n), origins])  # pdf, delta flag, point of the last bounce
         p, ng, ns, slot_em = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
+        uvd = np.empty((n, 8))
         shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
                                                              np.empty((n, 3)), np.empty(n, bool))
         sh_o, sh_d, sh_t = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -185,7 +186,7 @@ class PathTracer:
             # camera rays may be traced as image tiles (width 0: the accelerator looks); later rays are not an image
             hits = ctx.accel.closest_hit(o[:m], d[:m], t_min=tmin, width=0 if depth == 0 else -1)
             hit = hits.hit
-            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, ns, slot_em)
+            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, ns, uvd, slot_em)
             if depth == 0:
                 first_t[idx], first_n[idx] = hits.t, ng[:m]
             last = 0 <= self.max_depth <= depth + 1
@@ -193,7 +194,7 @@ class PathTracer:
             if tb.is_texture.any() and not last:
                 slot = self._resolve_textures(slot_em[:m], hit, p[:m], uniform(keys[idx], dim1(depth, 3)),
                                               hits.kind, hits.prim)
-            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, ns, slot_em, slot,
+            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, ns, uvd, slot_em, slot,
                        (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
                        tb.packed(), em.pack(), em.env_tables(), (depth, depth > 0 or not self.hide, last,
                                                                  self.rr_depth, self.features), L, aux,
@@ -246,27 +247,23 @@ class PathTracer:
 
     def _resolve_textures(self, slot: np.ndarray, hit: np.ndarray, p: np.ndarray, u: np.ndarray,
                           kind: np.ndarray, prim: np.ndarray) -> np.ndarray:
-        """Textures (the course's solid ones, Mitsuba's checkerboard in UV): pick one blended material per hit,
+        """The course's solid textures: pick one blended material per hit,
         with the texture's weight as probability."""
         tex = hit & self.table.is_texture[slot]
         if not tex.any():
             return slot
         t = np.flatnonzero(tex)
-        uv = np.zeros((len(t), 2))
-        on_mesh = kind[t] == TRIANGLE
-        if on_mesh.any() and self.ctx.compiled.has_uv:
-            uv[on_mesh] = self.ctx.compiled.uv_at(prim[t][on_mesh], p[t][on_mesh])
         chosen = slot[t].copy()
         acc = np.zeros(len(t))
         done = np.zeros(len(t), bool)
-        for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t], p[t], uv):
+        for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t], p[t]):
             acc += weight
             take = ~done & (u[t] < acc) & (weight > 0)
             chosen[take] = leaf[take]
             done |= take
         last = ~done  # rounding: the weights sum to 1 up to float error
         if last.any():
-            for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t][last], p[t][last], uv[last]):
+            for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t][last], p[t][last]):
                 chosen[np.flatnonzero(last)[weight > 0]] = leaf[weight > 0]
         out = slot.copy()
         out[t] = chosen

@@ -37,9 +37,9 @@ import numpy as np
 
 from ..kernels.course.noise import turbulence
 from ..scene.materials import PBRMaterial
-from ..scene.textures import Checkerboard, Marble, Noise, UVCheckerboard, Wood
+from ..scene.textures import Checkerboard, Marble, Noise, Wood
 
-TEXTURES = (Checkerboard, Noise, Marble, Wood, UVCheckerboard)  # the textures that blend two materials
+TEXTURES = (Checkerboard, Noise, Marble, Wood)  # the textures that blend two materials
 WOOD_Y_TWIST = 0.05        # phase drift of the rings along the axis, per texture unit and unit of frequency (fitted)
 WOOD_NOISE_Y_SCALE = 0.2   # the noise's coordinate along the axis is scaled by this (fitted, see above)
 
@@ -53,11 +53,6 @@ def texture_points(texture, points: np.ndarray) -> np.ndarray:
 def blend_weight(texture, points: np.ndarray, uv: np.ndarray | None = None) -> np.ndarray:
     """Weight (N,) of material2 at world points (N,3) for one texture; UV textures read the hits' texture
     coordinates `uv` (N,2)."""
-    if isinstance(texture, UVCheckerboard):
-        m = texture.to_uv
-        q = (np.zeros((len(points), 2)) if uv is None else uv) @ m[:2, :2].T + m[:2, 2]
-        f = q - np.floor(q)
-        return ((f[:, 0] > 0.5) != (f[:, 1] > 0.5)).astype(np.float64)
     p = np.ascontiguousarray(texture_points(texture, points))
     if isinstance(texture, Checkerboard):
         parity = np.floor(p).astype(np.int64).sum(axis=1) & 1

@@ -2,7 +2,8 @@
 slot that binds a BSDF to a shape together with area emission and a normal flip. Plain data; the maths lives in
 rendering/bsdfs.py.
 
-Defaults are Mitsuba 3's. Colours are linear RGB triples (a number means grey).
+Defaults are Mitsuba 3's. Colours are linear RGB triples (a number means grey); a colour or a roughness that Mitsuba
+takes as a texture may also be a scene.textures Bitmap or Checker, looked up per hit.
 """
 
 from __future__ import annotations
@@ -10,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from .textures import Bitmap, Checker
 
 # Complex indices of refraction (eta, k) of named metals as Mitsuba 3.5.3's `scalar_rgb` variant uses them: its
 # spectral data (data/ior/<name>.{eta,k}.spd) integrated to RGB, read back with mi.traverse(conductor). "none" is
@@ -67,7 +70,11 @@ def _number(v, what: str) -> float:
     return float(a.reshape(-1)[0])
 
 
-def _alpha(v) -> float:
+def _alpha(v):
+    return _or_texture(v, _alpha_number)
+
+
+def _alpha_number(v) -> float:
     x = _number(v, "roughness alpha")
     if not (0 < x <= 4):
         raise ValueError(f"roughness alpha must be in (0, 4], got {v!r}")
@@ -80,7 +87,16 @@ def _distribution(v) -> str:
     return v
 
 
-def _albedo(v, what: str) -> np.ndarray:
+def _or_texture(v, check, *args):
+    """A texture as given (a parameter Mitsuba takes as a texture), anything else through check(v, *args)."""
+    return v if isinstance(v, (Bitmap, Checker)) else check(v, *args)
+
+
+def _albedo(v, what: str):
+    return _or_texture(v, _albedo_rgb, what)
+
+
+def _albedo_rgb(v, what: str) -> np.ndarray:
     a = rgb(v, what)
     if a.min() < 0:
         raise ValueError(f"{what} must not be negative, got {a.tolist()}")
@@ -113,9 +129,10 @@ class Dielectric:
 
 
 @dataclass
-class RoughDielectric(Dielectric):
-    """Rough glass (Mitsuba's `roughdielectric`): GGX or Beckmann microfacets reflecting and refracting (Walter et
-    al. 2007), sampled from the visible normals."""
+class Microfacet:
+    """What the rough conductor and the rough dielectric share: anisotropic roughness (a number or a texture) and the
+    microfacet distribution, checked once here after the smooth BSDF's own checks (a base listed first: the smooth
+    BSDF's fields come first, its __post_init__ is next in the MRO)."""
 
     alpha_u: float = 0.1
     alpha_v: float = 0.1
@@ -125,6 +142,12 @@ class RoughDielectric(Dielectric):
         super().__post_init__()
         self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
         self.distribution = _distribution(self.distribution)
+
+
+@dataclass
+class RoughDielectric(Microfacet, Dielectric):
+    """Rough glass (Mitsuba's `roughdielectric`): GGX or Beckmann microfacets reflecting and refracting (Walter et
+    al. 2007), sampled from the visible normals."""
 
 
 @dataclass
@@ -136,7 +159,7 @@ class Conductor:
     specular_reflectance: np.ndarray = 1.0
 
     def __post_init__(self):
-        self.eta, self.k = _albedo(self.eta, "eta"), _albedo(self.k, "k")
+        self.eta, self.k = _albedo(_constant(self.eta, "eta"), "eta"), _albedo(_constant(self.k, "k"), "k")
         self.specular_reflectance = _albedo(self.specular_reflectance, "specular reflectance")
 
     @classmethod
@@ -148,18 +171,9 @@ class Conductor:
 
 
 @dataclass
-class RoughConductor(Conductor):
+class RoughConductor(Microfacet, Conductor):
     """A rough metal: GGX (or Beckmann, Mitsuba's default) microfacets, anisotropic with alpha_u != alpha_v, Smith
     shadowing, sampled from the visible normals."""
-
-    alpha_u: float = 0.1
-    alpha_v: float = 0.1
-    distribution: str = "ggx"
-
-    def __post_init__(self):
-        super().__post_init__()
-        self.alpha_u, self.alpha_v = _alpha(self.alpha_u), _alpha(self.alpha_v)
-        self.distribution = _distribution(self.distribution)
 
 
 @dataclass
@@ -189,6 +203,8 @@ class RoughPlastic(Plastic):
     def __post_init__(self):
         super().__post_init__()
         self.alpha = _alpha(self.alpha)
+        if not isinstance(self.alpha, float):
+            raise ValueError("a rough plastic's alpha cannot be a texture (its transmittance tables are per alpha)")
         self.distribution = _distribution(self.distribution)
 
 
@@ -203,7 +219,81 @@ class TwoSided:
             raise ValueError(f"twosided cannot wrap a {type(self.bsdf).__name__}")
 
 
-BSDF = Diffuse | Dielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided
+@dataclass
+class Blend:
+    """Mitsuba's `blendbsdf`: (1 - weight) bsdf0 + weight bsdf1, weight in [0, 1] a number or a texture."""
+
+    bsdf0: object
+    bsdf1: object
+    weight: float = 0.5
+
+    def __post_init__(self):
+        for b in (self.bsdf0, self.bsdf1):
+            if isinstance(b, (Blend, Mask, NormalMap, BumpMap)):
+                raise ValueError(f"durer blends plain BSDFs (twosided or not), not a {type(b).__name__}")
+        self.weight = _fraction(self.weight, "blend weight")
+
+
+@dataclass
+class Mask:
+    """Mitsuba's `mask`: the surface is there with probability `opacity` (a number or a texture in [0, 1]); elsewhere
+    the ray passes straight through (a delta lobe)."""
+
+    bsdf: object
+    opacity: float = 0.5
+
+    def __post_init__(self):
+        if isinstance(self.bsdf, Mask):
+            raise ValueError("a mask cannot wrap another mask")
+        self.opacity = _fraction(self.opacity, "mask opacity")
+
+
+@dataclass
+class NormalMap:
+    """Mitsuba's `normalmap`: the shading frame's normal read from a raw RGB texture (2 rgb - 1, in the frame of the
+    surface's tangent dp/du and shading normal)."""
+
+    bsdf: object
+    normalmap: Bitmap
+
+    def __post_init__(self):
+        if not isinstance(self.normalmap, (Bitmap, Checker)):
+            raise ValueError("a normal map is a texture")
+
+
+@dataclass
+class BumpMap:
+    """Mitsuba's `bumpmap`: the shading frame tilted by the gradient of a height texture times `scale`."""
+
+    bsdf: object
+    texture: Bitmap
+    scale: float = 1.0
+
+    def __post_init__(self):
+        if not isinstance(self.texture, (Bitmap, Checker)):
+            raise ValueError("a bump map is a texture")
+        self.scale = _number(self.scale, "bump map scale")
+
+
+def _constant(v, what: str):
+    if isinstance(v, (Bitmap, Checker)):
+        raise ValueError(f"durer cannot texture {what} (a number or a colour here)")
+    return v
+
+
+def _fraction(v, what: str):
+    return _or_texture(v, _unit_number, what)
+
+
+def _unit_number(v, what: str) -> float:
+    x = _number(v, what)
+    if not 0 <= x <= 1:
+        raise ValueError(f"{what} must be in [0, 1], got {v!r}")
+    return x
+
+
+BSDF = (Diffuse | Dielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided | Blend
+        | Mask | NormalMap | BumpMap)
 
 
 @dataclass
@@ -217,5 +307,5 @@ class Surface:
 
     def __post_init__(self):
         if self.radiance is not None:
-            self.radiance = _albedo(self.radiance, "radiance")
+            self.radiance = _albedo(_constant(self.radiance, "an area emitter's radiance"), "radiance")
         self.flip_normals = bool(self.flip_normals)

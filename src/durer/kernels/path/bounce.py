@@ -15,13 +15,16 @@ from __future__ import annotations
 import math
 
 import numba as nb
+import numpy as np
 
 from ..common import JIT, MISS, SPHERE, TRIANGLE
-from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_albedo, bsdf_eval, bsdf_sample
+from .bsdf import COLUMNS, EMISSION, FLIP, SMOOTH, TEXTURED
+from .compose import bsdf_albedo, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
 from .envmap import envmap_eval_pdf, has_map
 from .qmc import sobol2, uniform1
-from .warps import frame3, power_heuristic1, to_local3, to_world3
+from .textures import resolve_row, shading_frame
+from .warps import power_heuristic1, to_local3, to_world3
 
 DIMS = 8  # 1-D random dimensions per bounce: 0 light pick, 1 lobe pick, 2 Russian roulette, 3 texture pick
 
@@ -39,22 +42,31 @@ def dim2(depth, k):
 
 
 @nb.njit(**JIT, inline="always")
-def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, pkeys, thr, eta, prev, bsdf, lights,
-               env, scalars, L, aux):
+def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, keys, pkeys, thr, eta, prev, bsdf,
+               lights, env, scalars, L, aux, work):
     """Shade one path after its closest hit: the body of shade_bounce, shared with the fused bounce of
     kernels/path/wavefront.py (inlined into both).
 
     ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, normals = (geometric gx, gy, gz, shading sx, sy,
     sz: the BSDF frame, side tests and emission use the shading normal, as Mitsuba's shading frame; the
-    solid-angle pdf of an emitter and the offsets of new rays the geometric one) and material slots (se as hit,
-    s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped (with an
-    environment map, an emitter's radiance and pdf are the map's, looked up here); j the path's row in L, sample,
-    keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found light to L[j]; with
-    scalars[4] (features wanted) records the first non-specular hit's albedo and normal in aux = (tint, albedo,
-    normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid, origin, direction, t_max, contribution, and
-    next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
-    P, T = bsdf
+    solid-angle pdf of an emitter and the offsets of new rays the geometric one), surf = (u, v, dp/du, dp/dv) at the
+    hit (surface.uv_at; read only by textured slots) and material slots (se as hit, s with solid textures
+    resolved; a slot with Mitsuba textures is looked up at (u, v) into work = (scratch table Q, first of its three
+    rows) first, kernels/path/textures.resolve_row); miss = (radiance r, g, b, light pdf, is an emitter) for a ray
+    that escaped (with an environment map, an emitter's radiance and pdf are the map's, looked up here); j the path's
+    row in L, sample, keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found
+    light to L[j]; with scalars[4] (features wanted) records the first non-specular hit's albedo and normal in aux =
+    (tint, albedo, normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid, origin, direction, t_max,
+    contribution, and next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
+    P, T, tex = bsdf
+    TI, TD = tex
     gx, gy, gz, hx, hy, hz = normals
+    if hit and s >= 0 and P[s, TEXTURED] != 0:
+        Q, r = work
+        resolve_row(P, s, Q, r, TI, TD, surf[0], surf[1])
+        if se == s:
+            se = r
+        P, s = Q, r
     K, _, F, _, _, _, tri_em, sph_em = lights
     depth, emit, last, rr_depth, want = scalars
     tint = aux[0]
@@ -105,8 +117,8 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, p
     if not hit or last or s < 0:
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
     sgn = -1.0 if P[s, FLIP] != 0 else 1.0
-    nx, ny, nz = hx * sgn, hy * sgn, hz * sgn
-    ts, tt = frame3(nx, ny, nz)
+    n0x, n0y, n0z = hx * sgn, hy * sgn, hz * sgn
+    (nx, ny, nz), ts, tt, bent = shading_frame(P, s, TI, TD, (n0x, n0y, n0z), (gx * sgn, gy * sgn, gz * sgn), surf)
     wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
     scale = 1e-7 * (1.0 + max(abs(px), abs(py), abs(pz)))
     # --- next-event estimation (light sampling's share of MIS)
@@ -115,6 +127,8 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, p
         ld, ldist, lw, lpdf = pick_sample(lights, env, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
         wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
         f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
+        if bent and (ld[0] * n0x + ld[1] * n0y + ld[2] * n0z) * wo[2] <= 0:  # a normal or bump map's side test
+            f0 = f1 = f2 = bpdf = 0.0
         mis = power_heuristic1(lpdf, bpdf)
         c0, c1, c2 = t0 * f0 * lw[0] * mis, t1 * f1 * lw[1] * mis, t2 * f2 * lw[2] * mis
         if max(c0, c1, c2) > 0 and lpdf > 0:
@@ -129,6 +143,9 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, p
     u = uniform1(keys[j], dim1(depth, 1))
     u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 1))
     wl, bw, bpdf, delta, beta = bsdf_sample(P, T, s, wi, u, u0, u1)
+    wx, wy, wz = to_world3(wl[0], wl[1], wl[2], ts, tt, nx, ny, nz)
+    if bent and (wx * n0x + wy * n0y + wz * n0z) * wl[2] <= 0:
+        bw = (0.0, 0.0, 0.0)
     t0, t1, t2 = t0 * bw[0], t1 * bw[1], t2 * bw[2]
     if seek:  # through a mirror or glass: the tint of the lobe taken, without the radiance scaling of refraction
         b2 = beta * beta
@@ -143,7 +160,6 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, p
             t0 = t1 = t2 = 0.0
     if not max(t0, t1, t2) > 0:
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
-    wx, wy, wz = to_world3(wl[0], wl[1], wl[2], ts, tt, nx, ny, nz)
     side = wx * gx + wy * gy + wz * gz
     off = scale * (1.0 if side > 0 else (-1.0 if side < 0 else 0.0))
     ln = math.sqrt(wx * wx + wy * wy + wz * wz)
@@ -177,11 +193,12 @@ def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
 
 
 @nb.njit(**JIT)
-def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
-                 aux, shadow, nxt, i0, i1):
+def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, uvd, slot_em, slot, path, misses, bsdf, lights, env, scalars,
+                 L, aux, shadow, nxt, i0, i1):
     """Shade paths i0..i1 of a wavefront after its closest-hit query (shade_path on each).
 
-    o, d (n, 3) the rays; hit_* the Hits; ng, ns (n, 3) geometric and shading normals; slot_em the hit's material slot,
+    o, d (n, 3) the rays; hit_* the Hits; ng, ns (n, 3) geometric and shading normals; uvd (n, 8) surface.uv_at's
+    texture coordinates and derivatives; slot_em the hit's material slot,
     slot the same with solid textures resolved; path = (idx, sample, keys, pixel keys, thr (n,3), eta,
     prev (n, 5): pdf of the last BSDF sample, its delta flag, the point it left from); misses = (radiance (n,3),
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
@@ -194,14 +211,17 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, slot_em, slot, path, m
     miss_le, miss_pdf, miss_em = misses
     shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = shadow
     nxt_o, nxt_d, nxt_prev, nxt_thr, nxt_eta = nxt
+    Q = np.empty((3, COLUMNS))  # a textured slot's resolved rows
     for i in range(i0, i1):
         k = hit_kind[i]
         ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
             (o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]), k != MISS, k, hit_prim[i], hit_t[i],
-            (ng[i, 0], ng[i, 1], ng[i, 2], ns[i, 0], ns[i, 1], ns[i, 2]), slot_em[i], slot[i],
+            (ng[i, 0], ng[i, 1], ng[i, 2], ns[i, 0], ns[i, 1], ns[i, 2]),
+            (uvd[i, 0], uvd[i, 1], uvd[i, 2], uvd[i, 3], uvd[i, 4], uvd[i, 5], uvd[i, 6], uvd[i, 7]), slot_em[i],
+            slot[i],
             (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], sample, keys, pkeys,
             (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
-            bsdf, lights, env, scalars, L, aux)
+            bsdf, lights, env, scalars, L, aux, (Q, 0))
         shadow_ok[i] = ok
         if ok:
             shadow_o[i, 0], shadow_o[i, 1], shadow_o[i, 2] = so

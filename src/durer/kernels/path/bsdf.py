@@ -5,6 +5,12 @@ documents the models and the course's Phong mapping).
 Directions are in the local frame of the (possibly flipped) surface normal, z up, both pointing away from the
 surface: wi towards where the path came from, wo the new direction. As in Mitsuba 3, eval returns
 f(wi, wo) cos(theta_o), sample returns wo with weight = f cos / pdf, and delta lobes are reached only by sampling.
+
+Parameters that Mitsuba takes as textures name a texture of kernels/path/textures.py in their TEX_* column (-1: the
+constant column holds the value); the bounce resolves such a row at the hit's UV into a scratch row first
+(textures.resolve_row), so every function here reads plain numbers. Two modifiers apply to any row: OPACITY (Mitsuba's
+`mask`: the ray passes through with probability 1 - opacity, a delta lobe) and TWOSIDED; a BLEND row mixes the rows
+CHILD0 and CHILD1 by WEIGHT (Mitsuba's `blendbsdf`).
 """
 
 from __future__ import annotations
@@ -18,11 +24,18 @@ from .microfacet import d1, fresnel1, fresnel_conductor1, g11, sample_visible1
 from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
 
 DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK, ROUGHDIELECTRIC = range(9)
+BLEND = 9  # Mitsuba's blendbsdf: (1 - weight) CHILD0 + weight CHILD1
 # columns of the packed table: kind, flags, four colours (3 each), scalars, emission
 KIND, TWOSIDED, C1, C2, C3, C4, ETA, AU, AV, EXPONENT, SPEC_WEIGHT, FDR_INT, NONLINEAR, FLIP, EMISSION, SMOOTH = (
     0, 1, 2, 5, 8, 11, 14, 15, 16, 17, 18, 19, 20, 21, 22, 25)
 BECKMANN = 26  # rough BSDFs: 1 for Beckmann microfacets, 0 for GGX
-COLUMNS = 27
+# TROW: the row of the rough plastic's transmittance table (the slot's own; a resolved scratch row keeps it); OPACITY
+# (1: opaque), a blend's WEIGHT and two child rows; TEXTURED: the row (or a blend's child) names a texture or a
+# normal or bump map; TEX_*: texture ids (-1 none) of C1, C2, AU, AV, OPACITY, WEIGHT, EMISSION, the normal map and
+# the bump map (scaled by BUMP_SCALE)
+TROW, OPACITY, WEIGHT, CHILD0, CHILD1, TEXTURED = 27, 28, 29, 30, 31, 32
+TEX_C1, TEX_C2, TEX_AU, TEX_AV, TEX_OPACITY, TEX_WEIGHT, TEX_EMISSION, TEX_NORMAL, TEX_BUMP, BUMP_SCALE = range(33, 43)
+COLUMNS = 43
 
 
 @nb.njit(**JIT, inline="always")
@@ -53,7 +66,7 @@ def _plastic_probs(P, T, s, wz):
     """Probabilities of the specular and the diffuse lobe of a (rough) plastic seen from wi."""
     sw = P[s, SPEC_WEIGHT]
     if P[s, KIND] == ROUGHPLASTIC:
-        ti = _transmittance(T, s, wz)
+        ti = _transmittance(T, int(P[s, TROW]), wz)
         ps, pd = (1.0 - ti) * sw, ti * (1.0 - sw)
     else:
         fi = fresnel1(wz, P[s, ETA])[0]
@@ -164,7 +177,8 @@ def _roughplastic_eval(P, T, s, wi, wo):
     au, eta = P[s, AU], P[s, ETA]
     hx, hy, hz, d, g1i, g, cos_i = _microfacet(wi, wo, au, au, P[s, BECKMANN] != 0)
     spec = fresnel1(wi[0] * hx + wi[1] * hy + wi[2] * hz, eta)[0] * d * g / (4.0 * cos_i)
-    m = _transmittance(T, s, wi[2]) * _transmittance(T, s, wo[2]) * c / (math.pi * eta * eta)
+    tr = int(P[s, TROW])
+    m = _transmittance(T, tr, wi[2]) * _transmittance(T, tr, wo[2]) * c / (math.pi * eta * eta)
     ps, pd = _plastic_probs(P, T, s, wi[2])
     return (P[s, C2] * spec + _diffuse_base(P, s, 0) * m, P[s, C2 + 1] * spec + _diffuse_base(P, s, 1) * m,
             P[s, C2 + 2] * spec + _diffuse_base(P, s, 2) * m, ps * d * g1i / (4.0 * cos_i) + pd * c * INV_PI)
@@ -186,10 +200,9 @@ def _phong_eval(P, s, wi, wo):
 
 
 @nb.njit(**JIT, inline="always")
-def bsdf_eval(P, T, s, wi, wo):
-    """f(wi, wo) cos(theta_o) (three channels) and the pdf with which bsdf_sample picks wo (delta lobes
-    excluded), for slot s; a TwoSided BSDF mirrors the frame to wi's side first. (Inlined: a switch over
-    per-kind functions, so a call costs one small function.)"""
+def leaf_eval(P, T, s, wi, wo):
+    """f cos and pdf of a row that is not a blend: a switch over per-kind functions (inlined into bsdf_eval, so a call
+    costs one small function); a TwoSided row mirrors the frame to wi's side first."""
     if P[s, TWOSIDED] != 0 and wi[2] < 0:
         wi = (wi[0], wi[1], -wi[2])
         wo = (wo[0], wo[1], -wo[2])
@@ -340,9 +353,8 @@ def _phong_sample(P, s, wi, u1, u20, u21):
 
 
 @nb.njit(**JIT, inline="always")
-def bsdf_sample(P, T, s, wi, u1, u20, u21):
-    """Sample wo for slot s from wi: (wo, weight = f cos / pdf (0 where nothing was sampled or not finite), pdf,
-    delta (a specular lobe was picked), eta (relative index crossed, 1 for reflection)). Inlined, as bsdf_eval."""
+def leaf_sample(P, T, s, wi, u1, u20, u21):
+    """bsdf_sample of a row that is not a blend (inlined into bsdf_sample, as leaf_eval)."""
     flip = P[s, TWOSIDED] != 0 and wi[2] < 0
     if flip:
         wi = (wi[0], wi[1], -wi[2])
@@ -367,33 +379,12 @@ def bsdf_sample(P, T, s, wi, u1, u20, u21):
         wo, w, pdf, delta, eta = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False, 1.0
     if flip:
         wo = (wo[0], wo[1], -wo[2])
-    if not (math.isfinite(w[0]) and math.isfinite(w[1]) and math.isfinite(w[2])):
-        w = (0.0, 0.0, 0.0)
     return wo, w, pdf, delta, eta
 
 
 @nb.njit(**JIT)
-def eval_kernel(P, T, slot, wi, wo, value, pdf):
-    """bsdf_eval for every row (NumPy arrays in, outputs written in place)."""
-    for i in range(slot.shape[0]):
-        value[i, 0], value[i, 1], value[i, 2], pdf[i] = bsdf_eval(P, T, slot[i], (wi[i, 0], wi[i, 1], wi[i, 2]),
-                                                                 (wo[i, 0], wo[i, 1], wo[i, 2]))
-
-
-@nb.njit(**JIT)
-def sample_kernel(P, T, slot, wi, u1, u2, wo, weight, pdf, delta, eta):
-    """bsdf_sample for every row (NumPy arrays in, outputs written in place)."""
-    for i in range(slot.shape[0]):
-        o, w, pdf[i], delta[i], eta[i] = bsdf_sample(P, T, slot[i], (wi[i, 0], wi[i, 1], wi[i, 2]), u1[i],
-                                                     u2[i, 0], u2[i, 1])
-        wo[i, 0], wo[i, 1], wo[i, 2] = o
-        weight[i, 0], weight[i, 1], weight[i, 2] = w
-
-
-@nb.njit(**JIT)
-def bsdf_albedo(P, s, wiz):
-    """The reflectance of slot s seen from a direction of local cos(theta) wiz, as the denoiser's albedo feature
-    (rendering/path.py): a diffuse BSDF's reflectance, a plastic's diffuse reflectance, a rough conductor's
+def leaf_albedo(P, s, wiz):
+    """A diffuse BSDF's reflectance, a plastic's diffuse reflectance, a rough conductor's
     specular reflectance times its Fresnel reflectance at normal incidence, the sum of a course Phong material's
     lobes (scaled to at most 1, as the table holds them). Zero for one-sided BSDFs seen from behind, and for
     smooth dielectrics and conductors (the path goes on through them: their albedo is what they show)."""

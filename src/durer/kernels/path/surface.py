@@ -64,12 +64,42 @@ def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_
 
 
 @nb.njit(**JIT)
+def uv_at(px, py, pz, k, j, tris, tri_uv):
+    """Texture coordinates and their derivatives at point p of a hit of kind k on primitive j: (u, v, dp/du (3),
+    dp/dv (3)), as Mitsuba's meshes compute them (dp/du, dp/dv from the triangle's edges and UV differences; zeros
+    where the mesh has no UVs or they are degenerate, and for spheres and planes, which have none in durer)."""
+    if k != TRIANGLE or j >= tri_uv.shape[0]:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    ax, ay, az = tris[j, 1, 0] - tris[j, 0, 0], tris[j, 1, 1] - tris[j, 0, 1], tris[j, 1, 2] - tris[j, 0, 2]
+    bx, by, bz = tris[j, 2, 0] - tris[j, 0, 0], tris[j, 2, 1] - tris[j, 0, 1], tris[j, 2, 2] - tris[j, 0, 2]
+    qx, qy, qz = px - tris[j, 0, 0], py - tris[j, 0, 1], pz - tris[j, 0, 2]
+    d11, d12, d22 = ax * ax + ay * ay + az * az, ax * bx + ay * by + az * bz, bx * bx + by * by + bz * bz
+    q1, q2 = qx * ax + qy * ay + qz * az, qx * bx + qy * by + qz * bz
+    det = d11 * d22 - d12 * d12
+    b1 = b2 = 0.0
+    if det > 0:
+        b1, b2 = (d22 * q1 - d12 * q2) / det, (d11 * q2 - d12 * q1) / det
+    b0 = 1.0 - b1 - b2
+    u = b0 * tri_uv[j, 0, 0] + b1 * tri_uv[j, 1, 0] + b2 * tri_uv[j, 2, 0]
+    v = b0 * tri_uv[j, 0, 1] + b1 * tri_uv[j, 1, 1] + b2 * tri_uv[j, 2, 1]
+    du0, dv0 = tri_uv[j, 1, 0] - tri_uv[j, 0, 0], tri_uv[j, 1, 1] - tri_uv[j, 0, 1]
+    du1, dv1 = tri_uv[j, 2, 0] - tri_uv[j, 0, 0], tri_uv[j, 2, 1] - tri_uv[j, 0, 1]
+    d = du0 * dv1 - dv0 * du1
+    if d == 0:
+        return u, v, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    inv = 1.0 / d
+    return (u, v, (dv1 * ax - dv0 * bx) * inv, (dv1 * ay - dv0 * by) * inv, (dv1 * az - dv0 * bz) * inv,
+            (du0 * bx - du1 * ax) * inv, (du0 * by - du1 * ay) * inv, (du0 * bz - du1 * az) * inv)
+
+
+@nb.njit(**JIT)
 def hit_surfaces(o, d, t, kind, prim, tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat,
-                 tri_n, p, ng, ns, slot, i0, i1):
+                 tri_n, tri_uv, p, ng, ns, uvd, slot, i0, i1):
     """p = o + t d (o on a miss), ng and ns (geometric and shading normals) and slot (-1, normals 0 on a miss) of
     hits i0..i1. tris
     (F, 3, 3) world triangles; spheres: world-to-object (S, 3, 4), object centre (S, 3), normal matrix (S, 3, 3);
-    planes' unit normals; the *_mat arrays their material slots; tri_n the triangles' vertex normals (surface_at)."""
+    planes' unit normals; the *_mat arrays their material slots; tri_n the triangles' vertex normals (surface_at);
+    uvd (n, 8) uv_at's texture coordinates and derivatives from the corners' tri_uv (F, 3, 2)."""
     for i in range(i0, i1):
         k = kind[i]
         h = t[i] if k == TRIANGLE or k == SPHERE or k == PLANE else 0.0
@@ -79,3 +109,6 @@ def hit_surfaces(o, d, t, kind, prim, tris, tri_mat, w2o, center, normal_matrix,
                                                      normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
         ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
         ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
+        r = uv_at(px, py, pz, k, prim[i], tris, tri_uv)
+        for c in range(8):
+            uvd[i, c] = r[c]

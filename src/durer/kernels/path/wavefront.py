@@ -15,8 +15,9 @@ import numpy as np
 from ..bvh.single import blas_any, blas_closest, planes_closest
 from ..common import JIT, MISS, PLANE
 from .bounce import shade_path
+from .bsdf import COLUMNS, TEXTURED
 from .qmc import mix64
-from .surface import surface_at
+from .surface import surface_at, uv_at
 
 # The accelerator's one-ray walks, compiled from the same Python functions (no second copy of the traversal) for
 # this kernel: a call passes a dozen arrays, each seven words by value, and the callee updates their reference
@@ -32,8 +33,10 @@ PIECES = 32  # work items of a bounce: a few per thread, so a thread that was de
 
 
 def scratch(stack_size: int) -> tuple:
-    """Each piece's traversal stack (nodes, entry distances) and lane distances: trace_bounce allocates nothing."""
-    return np.empty((PIECES, stack_size), np.int32), np.empty((PIECES, stack_size)), np.empty((PIECES, 4))
+    """Each piece's traversal stack (nodes, entry distances), lane distances and three rows for a textured slot's
+    resolved BSDF (kernels/path/textures.resolve_row): trace_bounce allocates nothing."""
+    return (np.empty((PIECES, stack_size), np.int32), np.empty((PIECES, stack_size)), np.empty((PIECES, 4)),
+            np.empty((3 * PIECES, COLUMNS)))
 
 
 # _nrt=False: no reference counting in this kernel. With it, every array taken out of a tuple argument inside the
@@ -61,16 +64,16 @@ def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, 
         stack_node, stack_t, dist = scratch[0][piece], scratch[1][piece], scratch[2][piece]
         for k in range(m * piece // PIECES, m * (piece + 1) // PIECES):
             _one_path(live[k], k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars,
-                      t_min, L, aux, first, alive, stack_node, stack_t, dist)
+                      t_min, L, aux, first, alive, stack_node, stack_t, dist, (scratch[3], 3 * piece))
 
 
 @nb.njit(**JIT, inline="always")
 def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L, aux,
-              first, alive, stack_node, stack_t, dist):
+              first, alive, stack_node, stack_t, dist, work):
     """trace_bounce's work on path i (live[k])."""
     sample, keys, pkeys = path
     bounds, child, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o, pl_n, pl_off, _ = accel
-    tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n = surfaces
+    tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n, tri_uv = surfaces
     first_t, first_n = first
     ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
     best, pprim = _planes(pl_n, pl_off, ox, oy, oz, dx, dy, dz, t_min, np.inf)
@@ -82,13 +85,16 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     h = t if hit else 0.0
     gx, gy, gz, sx, sy, sz, s = surface_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_mat, w2o,
                                            center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
+    surf = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    if s >= 0 and bsdf[0][s, TEXTURED] != 0:
+        surf = uv_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_uv)
     if scalars[0] == 0:
         first_t[i] = t
         first_n[i, 0], first_n[i, 1], first_n[i, 2] = gx, gy, gz
     ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
-        (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, (gx, gy, gz, sx, sy, sz), s, s, miss, i, sample, keys, pkeys,
-        (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
-        bsdf, lights, env, scalars, L, aux)
+        (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, (gx, gy, gz, sx, sy, sz), surf, s, s, miss, i, sample, keys,
+        pkeys, (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3],
+                                                            prev[i, 4]), bsdf, lights, env, scalars, L, aux, work)
     if ok:
         _, blocker = _planes(pl_n, pl_off, so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st)
         if blocker < 0 and not _any(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
