@@ -166,11 +166,11 @@ def test_mesh_files_through_trimesh(tmp_path, kind):
 
 
 def test_shapes_become_durer_geometry(tmp_path):
-    from durer.io.mitsuba_scene import DISK_SEGMENTS
-
     p = write(tmp_path, '<shape type="rectangle"/><shape type="cube"/><shape type="disk"/>'
-                        '<shape type="sphere"><float name="radius" value="2"/></shape>')
-    rect, cube, disk, sphere = (o.object for o in durer.load(p).group.objects)
+                        '<shape type="sphere"><float name="radius" value="2"/></shape>'
+                        '<shape type="cylinder"><float name="radius" value="0.5"/><point name="p1" x="0" y="2" z="0"/>'
+                        '</shape>')
+    rect, cube, disk, sphere, cylinder = (o.object for o in durer.load(p).group.objects)
 
     def area(m):
         v = m.vertices[m.faces]
@@ -184,5 +184,6 @@ def test_shapes_become_durer_geometry(tmp_path):
     assert area(rect) == pytest.approx(4) and (np.cross(*(rect.vertices[rect.faces[:, 1:]] -
                                                           rect.vertices[rect.faces[:, :1]]).transpose(1, 0, 2))[:, 2] > 0).all()
     assert area(cube) == pytest.approx(24) and outward(cube)
-    assert area(disk) == pytest.approx(np.pi, rel=1.1e-4) and len(disk.faces) == DISK_SEGMENTS
+    assert isinstance(disk, durer.Disk) and isinstance(cylinder, durer.Cylinder)  # analytic, not triangle fans
+    assert cylinder.radius == 0.5 and np.array_equal(cylinder.p1, [0, 2, 0])
     assert sphere.radius == 2

@@ -15,7 +15,7 @@ from ..scene.graph import Group, Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
 from .images import read_hdr
 from .mitsuba_bsdfs import build_bsdf, colour
-from .mitsuba_shapes import DISK_SEGMENTS, build_shape  # noqa: F401  (DISK_SEGMENTS: README's known differences)
+from .mitsuba_shapes import build_shape
 from .mitsuba_tree import Props, call
 from .mitsuba_xml import MAX_DEPTH
 

@@ -1,25 +1,23 @@
 """Mitsuba 3 shape plugins -> durer geometry placed by Transforms: mesh files (obj, ply through trimesh; serialized
-through io/serialized.py), rectangle, cube, sphere, disk, and shapegroup + instance (a group of shapes placed
-several times, which durer stores once and traces two-level). Each shape gets its own material slot (BSDF, area
-emission, flipped normals)."""
+through io/serialized.py), rectangle and cube (meshes with Mitsuba's texture coordinates), the analytic sphere,
+disk and cylinder, and shapegroup + instance (a group of shapes placed several times, which durer stores once and
+traces two-level). Each shape gets its own material slot (BSDF, area emission, flipped normals)."""
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from ..scene import bsdfs as B
 from ..scene.graph import Group, Transform
-from ..scene.shapes import Sphere, TriangleMesh
+from ..scene.shapes import Cylinder, Disk, Sphere, TriangleMesh
 from ..scene.textures import UVCheckerboard
 from .files import read_bytes
 from .mitsuba_bsdfs import Checkered
 from .mitsuba_tree import Props, call
 from .serialized import read_serialized
 
-DISK_SEGMENTS = 256
-SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "shapegroup", "instance")
+SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "shapegroup", "instance")
+ANALYTIC = (Sphere, Disk, Cylinder)  # texture coordinates computed at the hit (CompiledScene.analytic_uv)
 
 
 def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
@@ -47,10 +45,10 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
     elif t == "cube":
         geometry = _cube()
     elif t == "disk":
-        a = np.linspace(0.0, 2.0 * np.pi, DISK_SEGMENTS, endpoint=False)
-        v = np.vstack([[0.0, 0.0, 0.0], np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])])
-        i = np.arange(DISK_SEGMENTS)
-        geometry = TriangleMesh(v, np.column_stack([np.zeros_like(i), 1 + i, 1 + (i + 1) % DISK_SEGMENTS]))
+        geometry = Disk()
+    elif t == "cylinder":
+        geometry = call(node, Cylinder, p.get("p0", np.zeros(3), "vec"), p.get("p1", np.array([0.0, 0.0, 1.0]), "vec"),
+                        p.get("radius", 1.0, float))
     else:  # sphere
         geometry = call(node, Sphere, p.get("center", np.zeros(3), "vec"), p.get("radius", 1.0, float))
     p.done()
@@ -70,9 +68,9 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
     if isinstance(bsdf, Checkered):
         if radiance is not None:
             raise node.error("durer cannot render a textured bsdf on an emitting shape")
-        if getattr(geometry, "uvs", None) is None:
-            raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's checkerboard (durer has them for "
-                             "meshes with UVs and rectangles)")
+        if not isinstance(geometry, ANALYTIC) and geometry.uvs is None:
+            raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's checkerboard (its mesh file "
+                             "has none)")
         first = len(builder.materials)
         builder.materials += [call(node, B.Surface, bsdf.bsdf0, None, flip),
                               call(node, B.Surface, bsdf.bsdf1, None, flip),
@@ -148,19 +146,12 @@ def _mesh_file(builder, node, p: Props) -> TriangleMesh:
 
 
 def _cube() -> TriangleMesh:
-    """[-1, 1]^3 with outward-facing triangles."""
-    v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
-    faces = []
-    for axis in range(3):
-        for sign in (-1, 1):
-            quad = [i for i in range(8) if v[i, axis] == sign]
-            c = v[quad].mean(0)
-            normal = np.zeros(3)
-            normal[axis] = sign
-            e1, e2 = np.eye(3)[(axis + 1) % 3], np.eye(3)[(axis + 2) % 3]
-            quad.sort(key=lambda i: math.atan2((v[i] - c) @ e2, (v[i] - c) @ e1))
-            a, b, c2, d = quad
-            for tri in ((a, b, c2), (a, c2, d)):
-                n = np.cross(v[tri[1]] - v[tri[0]], v[tri[2]] - v[tri[0]])
-                faces.append(tri if n @ normal > 0 else (tri[0], tri[2], tri[1]))
-    return TriangleMesh(v, np.array(faces))
+    """Mitsuba's cube: [-1, 1]^3 as 12 outward-facing triangles over 24 vertices (four a face), with its texture
+    coordinates (each face [0, 1]^2), the arrays of Mitsuba's cube.cpp."""
+    v = np.array([[1, -1, -1], [1, -1, 1], [-1, -1, 1], [-1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, 1, 1], [1, 1, 1],
+                  [1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1], [-1, -1, 1],
+                  [-1, -1, 1], [-1, 1, 1], [-1, 1, -1], [-1, -1, -1], [1, 1, -1], [1, -1, -1], [-1, -1, -1],
+                  [-1, 1, -1]], dtype=np.float64)
+    uv = np.tile([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]], (6, 1))
+    faces = np.array([tri for q in range(0, 24, 4) for tri in ([q, q + 1, q + 2], [q + 3, q, q + 2])])
+    return TriangleMesh(v, faces, uvs=uv)

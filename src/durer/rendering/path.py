@@ -20,7 +20,7 @@ import threading
 
 import numpy as np
 
-from ..kernels.common import TRIANGLE
+from ..kernels.common import SPHERE, TRIANGLE
 from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
@@ -50,7 +50,7 @@ class PathTracer:
         flat = ctx.compiled.flat  # instances flattened: hit_surfaces reads every triangle from one array
         self._surfaces = tuple(np.ascontiguousarray(a) for a in (
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
-            flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
+            flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
             flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3))))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
         # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators,
@@ -256,6 +256,9 @@ class PathTracer:
         on_mesh = kind[t] == TRIANGLE
         if on_mesh.any() and self.ctx.compiled.has_uv:
             uv[on_mesh] = self.ctx.compiled.uv_at(prim[t][on_mesh], p[t][on_mesh])
+        on_shape = kind[t] == SPHERE  # spheres, disks, cylinders: Mitsuba's parametrisation
+        if on_shape.any():
+            uv[on_shape] = self.ctx.compiled.analytic_uv(prim[t][on_shape], p[t][on_shape])
         chosen = slot[t].copy()
         acc = np.zeros(len(t))
         done = np.zeros(len(t), bool)
