@@ -74,8 +74,9 @@ def load_dict(scene: dict, mesh_path: list[str] | None = None) -> Scene:
 
 
 __all__ = [
-    "Checkerboard", "Cylinder", "DirectionalLight", "Disk", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
-    "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane",
-    "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight", "Transform",
-    "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "load_dict", "preview", "render", "transforms",
+    "Checkerboard", "Cylinder", "DirectionalLight", "Disk", "DurerError", "FisheyeCamera", "Group", "Marble",
+    "Material", "Noise", "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial",
+    "Plane", "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight",
+    "Transform", "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "load_dict", "preview", "render",
+    "transforms",
 ]

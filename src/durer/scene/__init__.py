@@ -12,7 +12,7 @@ from .shapes import Cylinder, Disk, Plane, Sphere, Triangle, TriangleMesh
 from .textures import Checkerboard, Marble, Noise, Wood
 
 __all__ = [
-    "Checkerboard", "Cylinder", "DirectionalLight", "Disk", "FisheyeCamera", "Group", "Marble", "Material", "Noise", "OrthographicCamera",
-    "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight", "Scene", "Sphere", "Transform",
-    "Triangle", "TriangleMesh", "Wood",
+    "Checkerboard", "Cylinder", "DirectionalLight", "Disk", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
+    "OrthographicCamera", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight", "Scene",
+    "Sphere", "Transform", "Triangle", "TriangleMesh", "Wood",
 ]
