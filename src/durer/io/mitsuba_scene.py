@@ -12,7 +12,7 @@ import numpy as np
 from ..scene import bsdfs as B
 from ..scene.cameras import OrthographicCamera, PerspectiveCamera
 from ..scene.graph import Group, Scene
-from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
+from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight, SpotLight
 from .images import read_hdr
 from .mitsuba_bsdfs import build_bsdf, colour
 from .mitsuba_shapes import build_shape
@@ -285,6 +285,9 @@ class Builder:
             pos = pos if pos is not None else (m[:3, 3] if m is not None else np.zeros(3))
             out = call(node, PointLight, pos, B.rgb(colour(self, node, p, "intensity", 1.0)), (0.0, 0.0, 1.0))
             self.lights.append(out)
+        elif t == "spot":
+            out = self._spot(node, p)
+            self.lights.append(out)
         elif t == "directional":
             m = p.get("to_world", None, "matrix")
             d = p.get("direction", None, "vec")
@@ -300,11 +303,27 @@ class Builder:
                 out = self._envmap(node, p)
             self.environment = out
         else:
-            raise node.error(f"unsupported emitter '{t}' (use area, point, directional, constant or envmap)")
+            raise node.error(f"unsupported emitter '{t}' (use area, point, spot, directional, constant or envmap)")
         p.done()
         if node.children:
             raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in emitter '{t}'")
         return out
+
+    def _spot(self, node, p) -> SpotLight:
+        """Mitsuba's spot: at to_world's origin along its +z, intensity / d^2, full inside beam_width (default 3/4
+        of cutoff_angle, 20 degrees), falling off linearly in the angle to 0 at cutoff_angle."""
+        for child in node.children:
+            if child.tag == "texture":
+                raise child.error("spot: a projected texture is not read yet (durer renders the spot without one "
+                                  "only)")
+        m = p.get("to_world", np.eye(4), "matrix")
+        cutoff = p.get("cutoff_angle", 20.0, float)
+        beam = p.get("beam_width", 0.75 * cutoff, float)
+        intensity = B.rgb(colour(self, node, p, "intensity", 1.0))
+        if not 0 < cutoff <= 90 or not 0 <= beam < cutoff:
+            raise node.error(f"spot: durer needs 0 <= beam_width < cutoff_angle <= 90 degrees, got {beam:g} and "
+                             f"{cutoff:g}")
+        return call(node, SpotLight, m[:3, 3], m[:3, 2], intensity, beam, cutoff, (0.0, 0.0, 1.0), "angle")
 
     def _envmap(self, node, p) -> EnvironmentMap:
         filename = p.get("filename", None, str)
