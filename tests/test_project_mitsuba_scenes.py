@@ -36,6 +36,7 @@ LOADABLE = [
     "mitsuba-data/tests/scenes/infinite_mirrors/scene_path.xml",
     "mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml",
     "roblesch-roulette/renderer/scene_v3.xml",
+    "mitsuba-data/tests/scenes/various_shapes/test_various_shapes_path.xml",
 ]
 SLOW = pytest.mark.slow
 # scene, the file whose film to shrink (None: the scene's parameters do it), parameters, spp
@@ -66,6 +67,10 @@ RENDERS = [
     # small bright emitters: Mitsuba's own mean moves by 3% between 256-spp renders, so 512 spp
     pytest.param("mitsuba-data/docs/scenes/integrator_direct_both.xml",
                  "mitsuba-data/docs/scenes/include/veach_mis.xml", {}, 512, id="direct-both", marks=SLOW),
+    # exact disk and cylinder, Mitsuba's UVs on them and on its cube, a triangulated sdfgrid (instanced)
+    pytest.param("mitsuba-data/tests/scenes/various_shapes/test_various_shapes_path.xml",
+                 "mitsuba-data/tests/scenes/various_shapes/test_various_shapes_path.xml", {}, 64, id="various-shapes",
+                 marks=SLOW),
     # two-level traversal: its kernels' first compile takes about a minute
     pytest.param("mitsuba-data/tests/scenes/instancing/test_instancing_path.xml", None, {}, 32, id="instancing",
                  marks=SLOW),

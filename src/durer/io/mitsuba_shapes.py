@@ -1,7 +1,8 @@
 """Mitsuba 3 shape plugins -> durer geometry placed by Transforms: mesh files (obj, ply through trimesh; serialized
-through io/serialized.py), rectangle and cube (meshes with Mitsuba's texture coordinates), the analytic sphere,
-disk and cylinder, and shapegroup + instance (a group of shapes placed several times, which durer stores once and
-traces two-level). Each shape gets its own material slot (BSDF, area emission, flipped normals)."""
+through io/serialized.py), rectangle and cube (meshes with Mitsuba's texture coordinates), the analytic sphere, disk
+and cylinder, sdfgrid (its level set triangulated, io/sdfgrid.py), and shapegroup + instance (a group of shapes
+placed several times, which durer stores once and traces two-level). Each shape gets its own material slot (BSDF,
+area emission, flipped normals)."""
 
 from __future__ import annotations
 
@@ -14,9 +15,11 @@ from ..scene.textures import UVCheckerboard
 from .files import read_bytes
 from .mitsuba_bsdfs import Checkered
 from .mitsuba_tree import Props, call
+from .sdfgrid import read_vol, sdf_mesh
 from .serialized import read_serialized
 
-SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "shapegroup", "instance")
+SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "sdfgrid", "shapegroup",
+          "instance")
 ANALYTIC = (Sphere, Disk, Cylinder)  # texture coordinates computed at the hit (CompiledScene.analytic_uv)
 
 
@@ -44,6 +47,8 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
                                 uvs=[[0, 0], [1, 0], [1, 1], [0, 1]])
     elif t == "cube":
         geometry = _cube()
+    elif t == "sdfgrid":
+        geometry = _sdfgrid(builder, node, p)
     elif t == "disk":
         geometry = Disk()
     elif t == "cylinder":
@@ -143,6 +148,33 @@ def _mesh_file(builder, node, p: Props) -> TriangleMesh:
         raise node.error(f"mesh {filename} has no triangles")
     return call(node, TriangleMesh, vertices, faces, source=path, uvs=uvs,
                 normals=None if face_normals else normals)
+
+
+def _sdfgrid(builder, node, p: Props) -> TriangleMesh:
+    """Mitsuba's sdfgrid (a .vol file or a `grid` array, [z, y, x] or [z, y, x, 1]) as the triangles of its zero
+    level set in the unit cube (io/sdfgrid.py)."""
+    filename, grid = p.get("filename", None, str), p.get("grid", None)
+    normals = p.get("normals", "smooth", str)
+    if normals not in ("smooth", "analytic"):
+        raise node.error(f"sdfgrid normals must be 'smooth' or 'analytic', got {normals!r}", p.where("normals"))
+    if (filename is None) == (grid is None):
+        raise node.error("sdfgrid needs a filename or a grid (one of them)")
+    path = None if filename is None else builder.file(node, filename, p.where("filename"), "volume file")
+    try:
+        if path is not None:
+            grid = read_vol(read_bytes(path, "volume file"))
+        grid = np.asarray(grid, dtype=np.float64)
+        grid = grid[..., 0] if grid.ndim == 4 and grid.shape[3] == 1 else grid
+        if grid.ndim != 3 or min(grid.shape) < 2 or not np.isfinite(grid).all():
+            raise ValueError(f"a grid is a finite [z, y, x] array at least 2 a side, got shape {grid.shape}")
+    except (TypeError, ValueError) as e:
+        raise node.error(f"sdfgrid: {e}", p.where("filename" if filename is not None else "grid")) from None
+    vertices, faces, vertex_normals = sdf_mesh(grid)
+    if not len(faces):
+        raise node.error("sdfgrid: the grid has no surface (no sign change)")
+    # Mitsuba's sdfgrid has texture coordinates (0, 0) everywhere (measured): a texture shows its value there
+    return call(node, TriangleMesh, vertices, faces, source=path, normals=vertex_normals,
+                uvs=np.zeros((len(vertices), 2)))
 
 
 def _cube() -> TriangleMesh:
