@@ -28,7 +28,16 @@ from .cli_args import (
 )
 from .errors import DurerError, UsageError
 from .io.layers import aov_files, parse_aovs, save_with_aovs
-from .options import ACCELERATORS, DENOISE_QUALITIES, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions, thread_count
+from .options import (
+    ACCELERATORS,
+    COURSE_FILTERS,
+    DENOISE_QUALITIES,
+    FILTERS,
+    INTEGRATORS,
+    SAMPLERS,
+    RenderOptions,
+    thread_count,
+)
 
 EXIT_USAGE = 2
 
@@ -69,7 +78,7 @@ def course_parser() -> argparse.ArgumentParser:
 
 def _course_options(a: argparse.Namespace) -> RenderOptions:
     samplers = [k for k in SAMPLERS if getattr(a, f"{k}_samples") is not None]
-    filters = [k for k in FILTERS if getattr(a, f"{k}_filter") is not None]
+    filters = [k for k in COURSE_FILTERS if getattr(a, f"{k}_filter") is not None]
     if len(samplers) > 1:
         raise UsageError(f"choose one sampler, not {' and '.join('-' + s + '_samples' for s in samplers)}")
     if len(filters) > 1:

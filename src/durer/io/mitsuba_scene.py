@@ -241,21 +241,37 @@ class Builder:
             p.get(name, None, str)
         p.get("banner", None, bool)
         p.done()
-        self.defaults["filter"], self.defaults["filter_radius"] = "gaussian", 0.5  # Mitsuba's default rfilter
+        # Mitsuba's default rfilter: its gaussian (rendering/film.py's mitsuba_gaussian, 4 sigma wide)
+        self.defaults["filter"], self.defaults["filter_radius"] = "mitsuba_gaussian", 0.5
         for child in node.children:
             child = self.resolve(child)
             if child.tag != "rfilter":
                 raise child.error(f"<{child.tag}> cannot appear in a film")
-            f = Props(child)
-            if child.type not in ("box", "tent", "gaussian"):
-                raise child.error(f"unsupported rfilter '{child.type}' (use box, tent or gaussian)")
-            radius = f.get("stddev", 0.5, float) if child.type == "gaussian" else \
-                f.get("radius", 0.5 if child.type == "box" else 1.0, float)
-            f.done()
-            if not radius > 0:
-                raise child.error("filter radius must be positive")
-            self.defaults["filter"], self.defaults["filter_radius"] = child.type, radius
+            self.defaults["filter"], self.defaults["filter_radius"] = self._rfilter(child)
         return width, height
+
+    def _rfilter(self, node) -> tuple[str, float]:
+        """A Mitsuba rfilter as durer's filter name and radius (rendering/film.py)."""
+        f = Props(node)
+        t = node.type
+        if t not in ("box", "tent", "gaussian", "mitchell", "lanczos"):
+            raise node.error(f"unsupported rfilter '{t}' (use box, tent, gaussian, mitchell or lanczos)")
+        if t == "mitchell":
+            b, c = f.get("B", 1.0 / 3.0, float), f.get("C", 1.0 / 3.0, float)
+            if abs(b - 1.0 / 3.0) > 1e-6 or abs(c - 1.0 / 3.0) > 1e-6:
+                raise node.error("durer's mitchell filter has Mitsuba's default B = C = 1/3 only")
+            radius = 2.0
+        elif t == "lanczos":
+            radius = float(f.get("lobes", 3, int))
+        elif t == "gaussian":
+            radius = f.get("stddev", 0.5, float)
+        else:
+            radius = f.get("radius", 0.5 if t == "box" else 1.0, float)
+        f.done()
+        if not radius > 0:
+            raise node.error("filter radius must be positive")
+        return {"gaussian": "mitsuba_gaussian"}.get(t, t), radius
+
 
     def sampler(self, node) -> None:
         if node.type not in SAMPLERS:
