@@ -50,6 +50,11 @@ class RenderOptions:
     denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs, box filter)
     denoise_quality: str = "high"  # high | balanced | fast: OIDN's preset (time against error: benchmarks/README.md)
     aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
+    # the film (Mitsuba's hdrfilm): render only the window (x, y, width, height) of the image, in pixels from its
+    # top-left corner (crop_offset_x/y, crop_width/height), and an alpha channel: the filter-weighted share of
+    # samples whose camera ray hit something (pixel_format rgba)
+    crop: tuple[int, int, int, int] | None = None
+    alpha: bool = False
 
     def filter_reach(self) -> float:
         """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent, mitchell, lanczos), 2 sigma
@@ -90,6 +95,9 @@ class RenderOptions:
                              f"{', '.join(DENOISE_QUALITIES)})")
         if self.grid is not None:
             check_grid(self.grid)
+        if self.crop is not None and (len(self.crop) != 4 or any(int(v) != v for v in self.crop)
+                                      or min(self.crop[:2]) < 0 or min(self.crop[2:]) < 1):
+            raise ValueError(f"crop is (x, y, width, height): offsets >= 0 and sizes >= 1, got {self.crop}")
 
 
 def check_grid(dims) -> None:

@@ -237,9 +237,20 @@ class Builder:
         width, height = p.get("width", 768, int), p.get("height", 576, int)
         if not (1 <= width <= 65536 and 1 <= height <= 65536):
             raise node.error("film width and height must be between 1 and 65536")
-        for name in ("pixel_format", "component_format", "file_format"):
+        pixel_format = p.get("pixel_format", "rgb", str).lower()
+        if pixel_format not in ("rgb", "rgba"):
+            raise node.error(f"durer's films are rgb or rgba, not pixel_format '{pixel_format}'",
+                             p.where("pixel_format"))
+        self.defaults["alpha"] = pixel_format == "rgba"
+        for name in ("component_format", "file_format"):
             p.get(name, None, str)
         p.get("banner", None, bool)
+        x, y = p.get("crop_offset_x", 0, int), p.get("crop_offset_y", 0, int)
+        w, h = p.get("crop_width", width - x, int), p.get("crop_height", height - y, int)
+        if min(x, y) < 0 or min(w, h) < 1 or x + w > width or y + h > height:
+            raise node.error(f"the crop window {w} x {h} at ({x}, {y}) must lie inside the {width} x {height} film")
+        if (x, y, w, h) != (0, 0, width, height):
+            self.defaults["crop"] = (x, y, w, h)
         p.done()
         # Mitsuba's default rfilter: its gaussian (rendering/film.py's mitsuba_gaussian, 4 sigma wide)
         self.defaults["filter"], self.defaults["filter_radius"] = "mitsuba_gaussian", 0.5
