@@ -155,8 +155,8 @@ class Builder:
             raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in integrator '{t}'")
 
     def sensor(self, node) -> None:
-        if node.type not in ("perspective", "orthographic"):
-            raise node.error(f"unsupported sensor '{node.type}' (durer reads perspective and orthographic)")
+        if node.type not in ("perspective", "thinlens", "orthographic"):
+            raise node.error(f"unsupported sensor '{node.type}' (durer reads perspective, thinlens and orthographic)")
         if self.camera is not None:
             raise node.error("durer renders one sensor per scene")
         if node.type == "orthographic":
@@ -166,8 +166,16 @@ class Builder:
         axis = p.get("fov_axis", "x", str).lower()
         focal = p.get("focal_length", None)
         near = p.get("near_clip", 0.01, float)
-        p.get("far_clip", None, float)
-        p.get("focus_distance", None, float)  # a pinhole: focus does not matter
+        far = p.get("far_clip", 10000.0, float)
+        aperture = p.get("aperture_radius", None if node.type == "thinlens" else 0.0, float)
+        if aperture is None:
+            raise node.error("thinlens needs an aperture_radius")
+        focus = p.get("focus_distance", far, float)  # a pinhole's does not matter
+        if not aperture >= 0 or (aperture > 0 and not focus > 0):
+            raise node.error(f"thinlens needs aperture_radius >= 0 and focus_distance > 0, got {aperture:g} and "
+                             f"{focus:g}")
+        if node.type == "perspective":
+            aperture = 0.0
         m = p.get("to_world", np.eye(4), "matrix")
         if fov is not None and focal is not None:
             raise node.error("give either fov or focal_length, not both")
@@ -192,7 +200,10 @@ class Builder:
         origin, left, up, direction = m[:3, 3], m[:3, 0], m[:3, 1], m[:3, 2]
         if np.dot(np.cross(direction, up), -left) <= 0:
             raise node.error("the sensor's to_world mirrors the image (durer's cameras are right-handed)")
-        cam = call(node, PerspectiveCamera, origin, direction, up, math.degrees(2 * math.atan(tan_long)))
+        # the lens's sizes are in camera space: to_world's scale moves them into the world
+        aperture, focus = aperture * np.linalg.norm(left), focus * np.linalg.norm(direction)
+        cam = call(node, PerspectiveCamera, origin, direction, up, math.degrees(2 * math.atan(tan_long)), aperture,
+                   focus if aperture > 0 else 1.0)
         cam.t_min = near
         self.camera = cam
 

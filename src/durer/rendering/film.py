@@ -42,6 +42,8 @@ import numpy as np
 from ..options import RenderOptions
 from .sampling import PIXEL_KEY, key, sobol_pair
 
+LENS_KEY = PIXEL_KEY - 1  # the sample index of a pixel's aperture stream (lens_samples), never a real one
+
 BOX, TENT, GAUSSIAN, MITCHELL, LANCZOS, MITSUBA_GAUSSIAN = range(6)
 _FILTER_CODES = {"box": BOX, "tent": TENT, "gaussian": GAUSSIAN, "mitchell": MITCHELL, "lanczos": LANCZOS,
                  "mitsuba_gaussian": MITSUBA_GAUSSIAN}
@@ -151,6 +153,23 @@ def tile_points(options: RenderOptions, width: int, height: int, rows: range, co
     r, c = np.divmod(np.arange(len(rows) * len(cols)), len(cols))
     corner = np.stack([c + cols.start, height - 1 - (r + rows.start)], axis=-1).astype(np.float64)
     return (corner[:, None, :] + off).reshape(-1, 2)
+
+
+def lens_samples(options: RenderOptions, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
+    """(N, 2) points in [0, 1)^2 on a thin lens's aperture for samples `sample` of pixels `pixel` (flat, row-major
+    over the whole image): Owen-scrambled Sobol pairs of their own key, unrelated to the film position and the
+    path tracer's dimensions, so a pixel's aperture samples are stratified and the same in every tile."""
+    keys = key(options.seed, np.asarray(pixel), np.full(len(pixel), LENS_KEY))
+    return sobol_pair(keys, np.asarray(sample), 0)
+
+
+def camera_rays(camera, points: np.ndarray, width: int, height: int, options: RenderOptions, pixel: np.ndarray,
+                sample: np.ndarray):
+    """The camera's rays (origins, directions, valid) through film points of samples `sample` of pixels `pixel`,
+    with aperture samples for a thin lens (PerspectiveCamera.aperture_radius > 0)."""
+    if getattr(camera, "aperture_radius", 0.0) > 0:
+        return camera.generate_rays(points, width, height, lens_samples(options, pixel, sample))
+    return camera.generate_rays(points, width, height)
 
 
 def sample_points(width: int, height: int, options: RenderOptions) -> tuple[np.ndarray, np.ndarray]:

@@ -284,7 +284,7 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     r, c = np.divmod(np.arange(halo.pixels), halo.cols)
     pixel = np.repeat((r + halo.row) * width + c + halo.col, m)
     sample = np.tile(np.arange(samples.start, samples.stop), halo.pixels)
-    origins, directions, valid = job.camera.generate_rays(points, width, height)
+    origins, directions, valid = film.camera_rays(job.camera, points, width, height, options, pixel, sample)
     n = len(points)
     color = np.empty((n, 3))
     color[:] = job.ctx.scene.background_color  # film points without a ray (outside a fisheye's circle)
