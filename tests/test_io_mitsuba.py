@@ -66,14 +66,17 @@ def test_load_dict_of_mitsuba_itself():
     mi = pytest.importorskip("mitsuba", reason="mi.cornell_box() is the dict to compare with")
     mi.set_variant("scalar_rgb")
     s = durer.load_dict(mi.cornell_box())
-    assert len(s.group.objects) == 8 and s.render_defaults["filter"] == "gaussian"
+    assert len(s.group.objects) == 8 and s.render_defaults["filter"] == "mitsuba_gaussian"
 
 
 ERRORS = [
     ("<shape type=\"sphere\">", 4, "malformed XML"),
     ("<shape type=\"bunny\"/>", 3, "unsupported shape 'bunny'"),
     ("<bsdf type=\"principled\" id=\"x\"/>", 3, "unsupported bsdf 'principled'"),
-    ("<emitter type=\"spot\"/>", 3, "unsupported emitter 'spot'"),
+    ("<emitter type=\"photon\"/>", 3, "unsupported emitter 'photon'"),
+    ("<emitter type=\"spot\">\n<texture type=\"bitmap\" name=\"texture\"/></emitter>", 4,
+     "spot: a projected texture is not read yet"),
+    ("<shape type=\"sdfgrid\"/>", 3, "sdfgrid needs a filename or a grid"),
     ("<integrator type=\"volpath\"/>", 3, "unsupported integrator 'volpath'"),
     ("<texture type=\"bitmap\"/>", 3, "unsupported texture 'bitmap'"),
     ("<shape type=\"sphere\">\n<float name=\"radius\" value=\"1\"/>\n<float name=\"size\" value=\"2\"/></shape>", 5,
@@ -114,6 +117,27 @@ def test_every_error_is_one_line_with_file_and_line(tmp_path, body, line, messag
     assert message in text and "\n" not in text
 
 
+SENSOR_ERRORS = [
+    ("<sensor type=\"thinlens\"/>", 2, "thinlens needs an aperture_radius"),
+    ("<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<rfilter type=\"mitchell\"><float name=\"B\" "
+     "value=\"0.5\"/></rfilter></film></sensor>", 3, "mitchell filter has Mitsuba's default B = C = 1/3 only"),
+    ("<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><integer name=\"crop_width\" value=\"900\"/></film>"
+     "</sensor>", 3, "crop window 900 x 576 at (0, 0) must lie inside the 768 x 576 film"),
+    ("<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"xyz\"/>"
+     "</film></sensor>", 3, "durer's films are rgb or rgba, not pixel_format 'xyz'"),
+]
+
+
+@pytest.mark.parametrize("body,line,message", SENSOR_ERRORS, ids=[e[2][:30] for e in SENSOR_ERRORS])
+def test_sensor_and_film_errors_are_one_line_with_file_and_line(tmp_path, body, line, message):
+    p = write(tmp_path, body, sensor=False)
+    with pytest.raises(SceneError) as e:
+        durer.load(p)
+    text = str(e.value)
+    assert text.startswith(f"{p}:{line}: "), text
+    assert message in text and "\n" not in text
+
+
 def test_structural_errors(tmp_path):
     p = tmp_path / "r.xml"
     p.write_text("<sensor type=\"perspective\"/>\n")
@@ -121,8 +145,8 @@ def test_structural_errors(tmp_path):
         durer.load(p)
     with pytest.raises(SceneError, match="no sensor"):
         durer.load(write(tmp_path, "", sensor=False))
-    with pytest.raises(SceneError, match="unsupported plugin type 'sdfgrid'"):
-        durer.load_dict({"type": "scene", "t": {"type": "sdfgrid"}})
+    with pytest.raises(SceneError, match="unsupported plugin type 'heightfield'"):
+        durer.load_dict({"type": "scene", "t": {"type": "heightfield"}})
 
 
 def test_cli_reports_one_line_and_exit_2(tmp_path):

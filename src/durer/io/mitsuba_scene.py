@@ -252,7 +252,8 @@ class Builder:
         if pixel_format not in ("rgb", "rgba"):
             raise node.error(f"durer's films are rgb or rgba, not pixel_format '{pixel_format}'",
                              p.where("pixel_format"))
-        self.defaults["alpha"] = pixel_format == "rgba"
+        if pixel_format == "rgba":
+            self.defaults["alpha"] = True
         for name in ("component_format", "file_format"):
             p.get(name, None, str)
         p.get("banner", None, bool)
