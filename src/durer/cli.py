@@ -173,8 +173,9 @@ def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] |
     p.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="sample pattern when --samples > 1 (default: jittered)")
     p.add_argument("--filter", default=None, metavar="NAME[:WIDTH]",
-                   help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
-                        "pixels, e.g. gaussian:0.4 (default: the scene's, else box:0.5)")
+                   help="reconstruction filter: box, tent or gaussian (the course's), or mitchell, lanczos or "
+                        "mitsuba_gaussian (Mitsuba 3's), with an optional radius, lobes or sigma in pixels, e.g. "
+                        "gaussian:0.4 (default: the scene's, else box:0.5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
     p.add_argument("--accel", choices=ACCELERATORS, default="bvh",
                    help="how rays find their closest hit: bvh, the bounding volume hierarchy (default), or brute, "
