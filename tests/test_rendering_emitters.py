@@ -229,3 +229,32 @@ def test_disk_and_cylinder_lights_match_mitsuba():
     ours, ref = _render_both(_base(disk=disk, tube=tube), 64)
     assert ref.mean() > 0.02
     np.testing.assert_allclose(ours.mean(axis=(0, 1)), ref.mean(axis=(0, 1)), rtol=0.02)
+
+
+def test_spot_texture_coordinates_are_mitsubas_projection():
+    """SpotLight.texture_uv (the lookup a projected texture will use) against Mitsuba's spot: a checkerboard
+    texture there lights exactly the points whose durer coordinates fall in its color0 cells."""
+    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 gives the reference")
+    mi.set_variant("scalar_rgb")
+    m = _look((0.3, 0.2, -0.5), (0.5, 0.1, 1.0), (0, 1, 0))
+    spot = durer.load_dict({"type": "scene", "sensor": {"type": "perspective"},
+                            "light": {"type": "spot", "cutoff_angle": 20, "to_world": m}}).lights[0]
+    checker = {"type": "checkerboard", "color0": {"type": "rgb", "value": [1, 0, 0]},
+               "color1": {"type": "rgb", "value": [0, 0, 1]}, "to_uv": mi.ScalarTransform4f().scale([7, 5, 1])}
+    theirs = mi.load_dict({"type": "scene", "e": {"type": "spot", "cutoff_angle": 20, "beam_width": 19.99,
+                                                  "to_world": mi.ScalarTransform4f(m), "texture": checker}})
+    emitter = theirs.emitters()[0]
+    rng = np.random.default_rng(0)
+    local = np.column_stack([rng.uniform(-0.3, 0.3, 300), rng.uniform(-0.3, 0.3, 300), np.ones(300)])
+    points = (local * rng.uniform(1, 3, (300, 1))) @ m[:3, :3].T + m[:3, 3]
+    uv = spot.texture_uv(points) * [7, 5]
+    red = (uv[:, 0] % 1 > 0.5) == (uv[:, 1] % 1 > 0.5)
+    seen = 0
+    for p, want in zip(points, red, strict=True):
+        it = mi.Interaction3f()
+        it.p = mi.Point3f(p)
+        w = np.array(emitter.sample_direction(it, mi.Point2f(0.5, 0.5))[1])
+        if w.max() > 0:
+            seen += 1
+            assert (w[0] > 0) == want and (w[2] > 0) != want
+    assert seen > 200

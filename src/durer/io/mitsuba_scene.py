@@ -362,7 +362,9 @@ class Builder:
         if not 0 < cutoff <= 90 or not 0 <= beam < cutoff:
             raise node.error(f"spot: durer needs 0 <= beam_width < cutoff_angle <= 90 degrees, got {beam:g} and "
                              f"{cutoff:g}")
-        return call(node, SpotLight, m[:3, 3], m[:3, 2], intensity, beam, cutoff, (0.0, 0.0, 1.0), "angle")
+        frame = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+        return call(node, SpotLight, m[:3, 3], m[:3, 2], intensity, beam, cutoff, (0.0, 0.0, 1.0), "angle",
+                    frame[:, 0], frame[:, 1])
 
     def _envmap(self, node, p) -> EnvironmentMap:
         filename = p.get("filename", None, str)

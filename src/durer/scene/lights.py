@@ -73,6 +73,9 @@ class SpotLight:
     outer_angle: float = 45.0
     attenuation: tuple[float, float, float] = (1.0, 0.0, 0.0)
     falloff: str = "gltf"
+    # the light's own x and y axes (Mitsuba's to_world), which orient a projected texture (texture_uv)
+    right: np.ndarray | None = None
+    up: np.ndarray | None = None
 
     def __post_init__(self):
         if self.falloff not in ("gltf", "angle"):
@@ -84,6 +87,17 @@ class SpotLight:
         if not 0 <= self.inner_angle < self.outer_angle <= 90:
             raise ValueError(f"spot light cone angles need 0 <= inner < outer <= 90 degrees, got "
                              f"{self.inner_angle:g} and {self.outer_angle:g}")
+
+    def texture_uv(self, points: np.ndarray) -> np.ndarray:
+        """(N, 2) texture coordinates of world `points` in the image the spot projects, as Mitsuba's spot: with d
+        the unit direction from the light in its own frame (right, up, direction), (1/2 + d.x / (2 d.z tan(outer)),
+        1/2 + d.y / (2 d.z tan(outer))): the cone of outer_angle fills [0, 1]^2's inscribed disk."""
+        if self.right is None or self.up is None:
+            raise ValueError("a spot light's texture needs its frame (right and up axes)")
+        v = np.asarray(points, dtype=np.float64) - self.position
+        x, y, z = v @ np.asarray(self.right), v @ np.asarray(self.up), v @ self.direction
+        scale = 0.5 / (z * np.tan(np.radians(self.outer_angle)))
+        return np.stack([0.5 + x * scale, 0.5 + y * scale], axis=-1)
 
     def cone_factor(self, to_light: np.ndarray) -> np.ndarray:
         """(N,) share of the light reaching points whose unit directions towards the light are `to_light`."""
