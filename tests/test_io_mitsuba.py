@@ -66,14 +66,17 @@ def test_load_dict_of_mitsuba_itself():
     mi = pytest.importorskip("mitsuba", reason="mi.cornell_box() is the dict to compare with")
     mi.set_variant("scalar_rgb")
     s = durer.load_dict(mi.cornell_box())
-    assert len(s.group.objects) == 8 and s.render_defaults["filter"] == "gaussian"
+    assert len(s.group.objects) == 8 and s.render_defaults["filter"] == "mitsuba_gaussian"
 
 
 ERRORS = [
     ("<shape type=\"sphere\">", 4, "malformed XML"),
     ("<shape type=\"bunny\"/>", 3, "unsupported shape 'bunny'"),
     ("<bsdf type=\"principled\" id=\"x\"/>", 3, "unsupported bsdf 'principled'"),
-    ("<emitter type=\"spot\"/>", 3, "unsupported emitter 'spot'"),
+    ("<emitter type=\"photon\"/>", 3, "unsupported emitter 'photon'"),
+    ("<emitter type=\"spot\">\n<texture type=\"bitmap\" name=\"texture\"/></emitter>", 4,
+     "spot: a projected texture is not read yet"),
+    ("<shape type=\"sdfgrid\"/>", 3, "sdfgrid needs a filename or a grid"),
     ("<integrator type=\"volpath\"/>", 3, "unsupported integrator 'volpath'"),
     ("<texture type=\"voronoi\"/>", 3, "unsupported texture 'voronoi'"),
     ("<shape type=\"sphere\">\n<float name=\"radius\" value=\"1\"/>\n<float name=\"size\" value=\"2\"/></shape>", 5,
@@ -116,6 +119,27 @@ def test_every_error_is_one_line_with_file_and_line(tmp_path, body, line, messag
     assert message in text and "\n" not in text
 
 
+SENSOR_ERRORS = [
+    ("<sensor type=\"thinlens\"/>", 2, "thinlens needs an aperture_radius"),
+    ("<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<rfilter type=\"mitchell\"><float name=\"B\" "
+     "value=\"0.5\"/></rfilter></film></sensor>", 3, "mitchell filter has Mitsuba's default B = C = 1/3 only"),
+    ("<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><integer name=\"crop_width\" value=\"900\"/></film>"
+     "</sensor>", 3, "crop window 900 x 576 at (0, 0) must lie inside the 768 x 576 film"),
+    ("<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"xyz\"/>"
+     "</film></sensor>", 3, "durer's films are rgb or rgba, not pixel_format 'xyz'"),
+]
+
+
+@pytest.mark.parametrize("body,line,message", SENSOR_ERRORS, ids=[e[2][:30] for e in SENSOR_ERRORS])
+def test_sensor_and_film_errors_are_one_line_with_file_and_line(tmp_path, body, line, message):
+    p = write(tmp_path, body, sensor=False)
+    with pytest.raises(SceneError) as e:
+        durer.load(p)
+    text = str(e.value)
+    assert text.startswith(f"{p}:{line}: "), text
+    assert message in text and "\n" not in text
+
+
 def test_structural_errors(tmp_path):
     p = tmp_path / "r.xml"
     p.write_text("<sensor type=\"perspective\"/>\n")
@@ -123,8 +147,8 @@ def test_structural_errors(tmp_path):
         durer.load(p)
     with pytest.raises(SceneError, match="no sensor"):
         durer.load(write(tmp_path, "", sensor=False))
-    with pytest.raises(SceneError, match="unsupported plugin type 'sdfgrid'"):
-        durer.load_dict({"type": "scene", "t": {"type": "sdfgrid"}})
+    with pytest.raises(SceneError, match="unsupported plugin type 'heightfield'"):
+        durer.load_dict({"type": "scene", "t": {"type": "heightfield"}})
 
 
 def test_cli_reports_one_line_and_exit_2(tmp_path):
@@ -168,11 +192,11 @@ def test_mesh_files_through_trimesh(tmp_path, kind):
 
 
 def test_shapes_become_durer_geometry(tmp_path):
-    from durer.io.mitsuba_scene import DISK_SEGMENTS
-
     p = write(tmp_path, '<shape type="rectangle"/><shape type="cube"/><shape type="disk"/>'
-                        '<shape type="sphere"><float name="radius" value="2"/></shape>')
-    rect, cube, disk, sphere = (o.object for o in durer.load(p).group.objects)
+                        '<shape type="sphere"><float name="radius" value="2"/></shape>'
+                        '<shape type="cylinder"><float name="radius" value="0.5"/><point name="p1" x="0" y="2" z="0"/>'
+                        '</shape>')
+    rect, cube, disk, sphere, cylinder = (o.object for o in durer.load(p).group.objects)
 
     def area(m):
         v = m.vertices[m.faces]
@@ -186,5 +210,6 @@ def test_shapes_become_durer_geometry(tmp_path):
     assert area(rect) == pytest.approx(4) and (np.cross(*(rect.vertices[rect.faces[:, 1:]] -
                                                           rect.vertices[rect.faces[:, :1]]).transpose(1, 0, 2))[:, 2] > 0).all()
     assert area(cube) == pytest.approx(24) and outward(cube)
-    assert area(disk) == pytest.approx(np.pi, rel=1.1e-4) and len(disk.faces) == DISK_SEGMENTS
+    assert isinstance(disk, durer.Disk) and isinstance(cylinder, durer.Cylinder)  # analytic, not triangle fans
+    assert cylinder.radius == 0.5 and np.array_equal(cylinder.p1, [0, 2, 0])
     assert sphere.radius == 2

@@ -179,5 +179,9 @@ def test_checkerboard_on_a_bsdf_parameter(tmp_path):
     with pytest.raises(SceneError, match="unsupported texture 'voronoi'"):
         load_mitsuba(str(scene(tmp_path, '<shape type="rectangle"><bsdf type="diffuse"><texture type="voronoi" '
                                          'name="reflectance"/></bsdf></shape>')))
+    # spheres have Mitsuba's texture coordinates; a mesh file without any cannot carry a checkerboard
+    load_mitsuba(str(scene(tmp_path, body.replace('type="rectangle"', 'type="sphere"'))))
+    (tmp_path / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     with pytest.raises(SceneError, match="no texture coordinates"):
-        load_mitsuba(str(scene(tmp_path, body.replace('type="rectangle"', 'type="sphere"'))))
+        load_mitsuba(str(scene(tmp_path, body.replace('type="rectangle">', 'type="obj"><string name="filename" '
+                                                                           'value="flat.obj"/>'))))

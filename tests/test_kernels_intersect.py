@@ -1,4 +1,5 @@
-"""Per-primitive tests: the watertight ray-triangle test (Woop, Benthin & Wald 2013)."""
+"""Per-primitive tests: the watertight ray-triangle test (Woop, Benthin & Wald 2013), the unit disk and the open
+unit cylinder (closed forms)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from durer.kernels.intersect import intersect_triangle
+from durer.kernels.common import CYLINDER_CODE, DISK_CODE
+from durer.kernels.intersect import intersect_cylinder, intersect_disk, intersect_triangle, sphere_hit_in_object_space
 from durer.query import RaycastingScene
 
 TRI = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -160,3 +162,61 @@ def test_axis_rays_from_inside_an_integer_hull_cross_once(seed):
     assert (s.count_intersections(o, d) == 1).all()
     assert np.isfinite(s.cast_rays(o, d)["t_hit"]).all()
     assert (s.count_intersections(o - 20 * d, d) == 2).all()
+
+
+_coord = st.floats(-3.0, 3.0, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(x=st.floats(-1.5, 1.5), y=st.floats(-1.5, 1.5), h=st.floats(0.1, 5.0), dx=_coord, dy=_coord,
+       dz=st.floats(0.05, 2.0))
+def test_disk_hit_is_where_the_ray_crosses_z0_inside_the_unit_circle(x, y, h, dx, dy, dz):
+    """A ray from above aimed at (x, y, 0): t = h / dz exactly when x^2 + y^2 <= 1, from either side."""
+    o = (x - dx * h / dz, y - dy * h / dz, h)
+    t = intersect_disk(*o, dx, dy, -dz, 0.0, np.inf)
+    inside = (o[0] + h / dz * dx) ** 2 + (o[1] + h / dz * dy) ** 2 <= 1.0
+    if abs(x * x + y * y - 1.0) > 1e-9:
+        assert (t < np.inf) == inside
+    if t < np.inf:
+        assert t == pytest.approx(h / dz, rel=1e-12)
+        assert intersect_disk(o[0], o[1], -h, dx, dy, dz, 0.0, np.inf) == pytest.approx(t, rel=1e-12)  # below
+    assert intersect_disk(*o, dx, dy, -dz, h / dz * 1.0001, np.inf) == np.inf  # past t_min
+    assert intersect_disk(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, np.inf) == np.inf  # parallel
+
+
+@settings(max_examples=300, deadline=None)
+@given(phi=st.floats(0.0, 2 * np.pi), z=st.floats(-0.5, 1.5), dist=st.floats(1.5, 6.0),
+       tilt=st.floats(-0.5, 0.5))
+def test_cylinder_hit_at_the_closed_form_root_between_its_ends(phi, z, dist, tilt):
+    """A ray from outside at distance dist from the axis, aimed at the axis point (0, 0, z): it meets the wall
+    at t = (dist - 1) / dist of the way (radial part), where its height must lie in [0, 1]; else it meets the far
+    wall (inside the tube) or nothing."""
+    c, s = np.cos(phi), np.sin(phi)
+    o = (dist * c, dist * s, z - tilt * dist)
+    d = (-dist * c, -dist * s, tilt * dist)  # reaches the axis at t = 1
+    t = intersect_cylinder(*o, *d, 0.0, np.inf)
+    near, far = (dist - 1.0) / dist, (dist + 1.0) / dist
+    h_near, h_far = o[2] + near * d[2], o[2] + far * d[2]
+    if 1e-9 < h_near < 1 - 1e-9:
+        assert t == pytest.approx(near, rel=1e-12)
+        p = np.array(o) + t * np.array(d)
+        assert np.hypot(p[0], p[1]) == pytest.approx(1.0, rel=1e-12)
+    elif 1e-9 < h_far < 1 - 1e-9 and not -1e-9 < h_near < 1 + 1e-9:
+        assert t == pytest.approx(far, rel=1e-12)  # through an open end onto the inner wall
+    elif not (-1e-9 < h_far < 1 + 1e-9 or -1e-9 < h_near < 1 + 1e-9):
+        assert t == np.inf
+    # along the axis the ray never meets the wall; from inside it meets it once
+    assert intersect_cylinder(0.0, 0.0, -1.0, 0.0, 0.0, 1.0, 0.0, np.inf) == np.inf
+    assert intersect_cylinder(0.0, 0.0, 0.5, c, s, 0.0, 0.0, np.inf) == pytest.approx(1.0)
+
+
+def test_shape_codes_pick_the_disk_and_the_cylinder_through_the_object_matrix():
+    """sphere_hit_in_object_space reads a radius code as the unit disk or cylinder seen through w2o; t stays in
+    world units (a disk scaled by 2 and moved to z = 3 is met at t = 7 - 3 from z = 7)."""
+    w2o = np.array([[0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1.0, -3.0]])
+    c = np.zeros(3)
+    assert sphere_hit_in_object_space((1.9, 0, 7.0), (0, 0, -1.0), c, DISK_CODE, w2o, 0.0, np.inf) == 4.0
+    assert sphere_hit_in_object_space((2.1, 0, 7.0), (0, 0, -1.0), c, DISK_CODE, w2o, 0.0, np.inf) == np.inf
+    assert sphere_hit_in_object_space((5.0, 0, 3.5), (-1.0, 0, 0), c, CYLINDER_CODE, w2o, 0.0, np.inf) == 3.0
+    assert sphere_hit_in_object_space((5.0, 0, 4.5), (-1.0, 0, 0), c, CYLINDER_CODE, w2o, 0.0, np.inf) == np.inf
+    assert sphere_hit_in_object_space((5.0, 0, 3.0), (-1.0, 0, 0), c, 1.0, w2o, 0.0, np.inf) == 3.0  # a sphere

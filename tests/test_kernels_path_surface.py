@@ -1,11 +1,11 @@
 """kernels/path/surface.hit_surfaces (the path tracer's hit points, normals and material slots in one pass) against
-accel/hits' NumPy definitions, on triangles, a mesh placed twice (instances), a squashed sphere and a plane."""
+accel/hits' NumPy definitions, on triangles, a mesh placed twice (instances), a squashed sphere, a disk, a cylinder and a plane."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from durer import Group, Plane, Scene, Sphere, Transform, TriangleMesh
+from durer import Cylinder, Disk, Group, Plane, Scene, Sphere, Transform, TriangleMesh
 from durer.accel.bvh import BVHAccelerator
 from durer.accel.compile import compile_scene
 from durer.accel.hits import geometric_normals, hit_materials
@@ -19,7 +19,9 @@ def test_hit_surfaces_match_the_numpy_definitions():
     mesh = TriangleMesh(rng.normal(size=(30, 3)), rng.integers(0, 30, size=(40, 3)), 2)
     group = Group([Plane((0, 1, 0), -2.0, 0),
                    Transform(tf.compose(tf.translate((0.5, 0, 0)), tf.scale((1, 2, 0.5))), Sphere((0, 0, 0), 1, 1)),
-                   Transform(tf.translate((-3, 0, 0)), mesh), Transform(tf.rotate((0, 1, 0), 40), mesh)])
+                   Transform(tf.translate((-3, 0, 0)), mesh), Transform(tf.rotate((0, 1, 0), 40), mesh),
+                   Transform(tf.compose(tf.translate((2, 2, 1)), tf.rotate((1, 0, 0), 30)), Disk(1)),
+                   Cylinder((-2, -1, 2), (1, -2, 3), 0.7, 2)])
     cs = compile_scene(Scene(camera=OrthographicCamera((0, 0, 5), (0, 0, -1), (0, 1, 0), 5), group=group))
     assert len(cs.instance_mesh) == 2  # the mesh placed twice is stored once
     o = rng.uniform(-6, 6, size=(4000, 3))
@@ -31,10 +33,13 @@ def test_hit_surfaces_match_the_numpy_definitions():
     p, ng, ns, slot = np.empty((4000, 3)), np.empty((4000, 3)), np.empty((4000, 3)), np.empty(4000, np.int64)
     uvd = np.empty((4000, 8))
     hit_surfaces(o, d, hits.t, hits.kind, hits.prim, flat.triangles.reshape(-1, 3, 3), flat.triangle_material,
-                 flat.sphere_world_to_object, flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material,
-                 flat.plane_normal, flat.plane_material, np.zeros((0, 3, 3)), np.zeros((0, 3, 2)), p, ng, ns, uvd,
-                 slot, 0, 4000)
-    assert not uvd.any()  # no texture coordinates anywhere
+                 flat.sphere_world_to_object, flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix,
+                 flat.sphere_material, flat.plane_normal, flat.plane_material, np.zeros((0, 3, 3)), np.zeros((0, 3, 2)),
+                 p, ng, ns, uvd, slot, 0, 4000)
+    # no mesh UVs: only the spheres have texture coordinates, Mitsuba's (phi / 2 pi, theta / pi), no derivatives
+    on_sphere = hits.kind == 2
+    assert not uvd[~on_sphere].any() and not uvd[:, 2:].any()
+    np.testing.assert_allclose(uvd[on_sphere, :2], cs.analytic_uv(hits.prim[on_sphere], p[on_sphere]), atol=1e-12)
     expect_p = o + np.where(hits.hit, hits.t, 0.0)[:, None] * d
     np.testing.assert_allclose(p, expect_p, rtol=0, atol=1e-12)
     np.testing.assert_allclose(ng, geometric_normals(cs, hits, expect_p), rtol=0, atol=1e-12)
@@ -58,7 +63,7 @@ def test_vertex_normals_are_interpolated_at_the_hit():
     p, ng, ns, slot, uvd = np.empty((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.empty(2, np.int64), np.empty((2, 8))
     tri_uv = cs.triangle_uv.reshape(-1, 3, 2)
     args = (o, d, hits.t, hits.kind, hits.prim, cs.triangles.reshape(-1, 3, 3), cs.triangle_material,
-            cs.sphere_world_to_object, cs.sphere_center, cs.sphere_normal_matrix, cs.sphere_material,
+            cs.sphere_world_to_object, cs.sphere_center, cs.sphere_radius, cs.sphere_normal_matrix, cs.sphere_material,
             cs.plane_normal, cs.plane_material)
     hit_surfaces(*args, corners, tri_uv, p, ng, ns, uvd, slot, 0, 2)
     # texture coordinates and Mitsuba's dp/du, dp/dv (the inverse of the UV map's slopes)

@@ -41,6 +41,7 @@ LOADABLE = [
     "mitsuba-data/docs/scenes/bsdf_blendbsdf.xml",
     "mitsuba-data/docs/scenes/bsdf_normalmap_with.xml",
     "yuubib-test/veach-ajar/scene_partial.xml",
+    "mitsuba-data/tests/scenes/various_shapes/test_various_shapes_path.xml",
 ]
 SLOW = pytest.mark.slow
 # scene, the file whose film to shrink (None: the scene's parameters do it), parameters, spp
@@ -82,6 +83,10 @@ RENDERS = [
                  {}, 32, id="normalmap"),
     # lit through a door ajar: Mitsuba's own mean moves by 3% at 128 spp (1024 spp: durer 0.891-0.896, Mitsuba 0.899)
     pytest.param("yuubib-test/veach-ajar/scene_partial.xml", None, {"resx": 48, "resy": 27}, 512, id="veach-ajar",
+                 marks=SLOW),
+    # exact disk and cylinder, Mitsuba's UVs on them and on its cube, a triangulated sdfgrid (instanced)
+    pytest.param("mitsuba-data/tests/scenes/various_shapes/test_various_shapes_path.xml",
+                 "mitsuba-data/tests/scenes/various_shapes/test_various_shapes_path.xml", {}, 64, id="various-shapes",
                  marks=SLOW),
     # two-level traversal: its kernels' first compile takes about a minute
     pytest.param("mitsuba-data/tests/scenes/instancing/test_instancing_path.xml", None, {}, 32, id="instancing",

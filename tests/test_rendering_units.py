@@ -25,7 +25,7 @@ CASES = {  # integrator -> scene and options (every filter with a support radius
     "whitted": ("spheres.txt", dict(shadows=True, bounces=3, samples=3, sampler="random")),
     "path": ("cornell_box.xml", dict(samples=3, max_depth=4)),
 }
-FILTERS = [("box", 0.5), ("tent", 1.5), ("gaussian", 0.5)]
+FILTERS = [("box", 0.5), ("tent", 1.5), ("gaussian", 0.5), ("mitchell", 2.0)]
 
 
 def _job(name: str, filt: tuple[str, float]) -> U.Job:

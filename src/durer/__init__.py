@@ -19,7 +19,7 @@ from .scene.cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, Pe
 from .scene.graph import Group, Scene, Transform
 from .scene.lights import DirectionalLight, PointLight, SpotLight
 from .scene.materials import Material, PBRMaterial, PhongMaterial
-from .scene.shapes import Plane, Sphere, Triangle, TriangleMesh
+from .scene.shapes import Cylinder, Disk, Plane, Sphere, Triangle, TriangleMesh
 from .scene.textures import Checkerboard, Marble, Noise, Wood
 
 __version__ = "0.1.0"
@@ -74,8 +74,9 @@ def load_dict(scene: dict, mesh_path: list[str] | None = None) -> Scene:
 
 
 __all__ = [
-    "Checkerboard", "DirectionalLight", "DurerError", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
-    "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane",
-    "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight", "Transform",
-    "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "load_dict", "preview", "render", "transforms",
+    "Checkerboard", "Cylinder", "DirectionalLight", "Disk", "DurerError", "FisheyeCamera", "Group", "Marble",
+    "Material", "Noise", "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial",
+    "Plane", "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight",
+    "Transform", "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "load_dict", "preview", "render",
+    "transforms",
 ]

@@ -28,7 +28,16 @@ from .cli_args import (
 )
 from .errors import DurerError, UsageError
 from .io.layers import aov_files, parse_aovs, save_with_aovs
-from .options import ACCELERATORS, DENOISE_QUALITIES, FILTERS, INTEGRATORS, SAMPLERS, RenderOptions, thread_count
+from .options import (
+    ACCELERATORS,
+    COURSE_FILTERS,
+    DENOISE_QUALITIES,
+    FILTERS,
+    INTEGRATORS,
+    SAMPLERS,
+    RenderOptions,
+    thread_count,
+)
 
 EXIT_USAGE = 2
 
@@ -69,7 +78,7 @@ def course_parser() -> argparse.ArgumentParser:
 
 def _course_options(a: argparse.Namespace) -> RenderOptions:
     samplers = [k for k in SAMPLERS if getattr(a, f"{k}_samples") is not None]
-    filters = [k for k in FILTERS if getattr(a, f"{k}_filter") is not None]
+    filters = [k for k in COURSE_FILTERS if getattr(a, f"{k}_filter") is not None]
     if len(samplers) > 1:
         raise UsageError(f"choose one sampler, not {' and '.join('-' + s + '_samples' for s in samplers)}")
     if len(filters) > 1:
@@ -164,8 +173,9 @@ def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] |
     p.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="sample pattern when --samples > 1 (default: jittered)")
     p.add_argument("--filter", default=None, metavar="NAME[:WIDTH]",
-                   help="reconstruction filter: box, tent or gaussian, with an optional radius or sigma in "
-                        "pixels, e.g. gaussian:0.4 (default: the scene's, else box:0.5)")
+                   help="reconstruction filter: box, tent or gaussian (the course's), or mitchell, lanczos or "
+                        "mitsuba_gaussian (Mitsuba 3's), with an optional radius, lobes or sigma in pixels, e.g. "
+                        "gaussian:0.4 (default: the scene's, else box:0.5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
     p.add_argument("--accel", choices=ACCELERATORS, default="bvh",
                    help="how rays find their closest hit: bvh, the bounding volume hierarchy (default), or brute, "

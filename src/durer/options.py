@@ -7,7 +7,10 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 SAMPLERS = ("uniform", "random", "jittered")
-FILTERS = ("box", "tent", "gaussian")
+COURSE_FILTERS = ("box", "tent", "gaussian")  # the course's (radial tent, gaussian cut at 2 sigma): -box_filter ...
+FILTERS = COURSE_FILTERS + ("mitchell", "lanczos", "mitsuba_gaussian")  # Mitsuba 3's, separable (rendering/film.py)
+# how far each filter reaches, in multiples of filter_radius
+_REACH = {"gaussian": 2.0, "mitsuba_gaussian": 4.0}
 ACCELERATORS = ("bvh", "brute")
 INTEGRATORS = ("auto", "raycast", "whitted", "path")
 # Sizes checked before any work starts (issue 25): a filter's reach in pixels (box/tent radius, gaussian 2 sigma:
@@ -28,8 +31,8 @@ class RenderOptions:
     weight: float = 0.01          # stop rays whose contribution falls below this (-weight)
     samples: int = 1              # samples per pixel
     sampler: str = "uniform"      # uniform | random | jittered (one centred sample when samples == 1 and uniform)
-    filter: str = "box"           # box | tent | gaussian reconstruction filter
-    filter_radius: float = 0.5    # box/tent radius, or gaussian sigma, in pixels
+    filter: str = "box"           # box | tent | gaussian | mitchell | lanczos | mitsuba_gaussian (rendering/film.py)
+    filter_radius: float = 0.5    # box/tent/mitchell radius, lanczos lobes, or gaussian sigma, in pixels
     seed: int = 0                 # seed of the random and jittered samplers: same seed, same image
     course_random: bool = False   # random/jittered offsets from the course's drand48 stream instead (film.py)
     course_edges: bool = False    # triangles accept points just outside their edges, as the course's do (compile.py)
@@ -47,10 +50,16 @@ class RenderOptions:
     denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs, box filter)
     denoise_quality: str = "high"  # high | balanced | fast: OIDN's preset (time against error: benchmarks/README.md)
     aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
+    # the film (Mitsuba's hdrfilm): render only the window (x, y, width, height) of the image, in pixels from its
+    # top-left corner (crop_offset_x/y, crop_width/height), and an alpha channel: the filter-weighted share of
+    # samples whose camera ray hit something (pixel_format rgba)
+    crop: tuple[int, int, int, int] | None = None
+    alpha: bool = False
 
     def filter_reach(self) -> float:
-        """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent) or 2 sigma (gaussian)."""
-        return self.filter_radius * (2.0 if self.filter == "gaussian" else 1.0)
+        """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent, mitchell, lanczos), 2 sigma
+        (the course's gaussian) or 4 sigma (Mitsuba's)."""
+        return self.filter_radius * _REACH.get(self.filter, 1.0)
 
     def validate(self) -> None:
         """ValueError naming the first option out of its range (sizes included: see MAX_FILTER_REACH)."""
@@ -67,8 +76,8 @@ class RenderOptions:
         if not self.filter_radius > 0:
             raise ValueError(f"filter radius must be positive, got {self.filter_radius}")
         if not self.filter_reach() <= MAX_FILTER_REACH:
-            what = "sigma" if self.filter == "gaussian" else "radius"
-            most = MAX_FILTER_REACH / (2 if self.filter == "gaussian" else 1)
+            what = "sigma" if "gaussian" in self.filter else "radius"
+            most = MAX_FILTER_REACH / _REACH.get(self.filter, 1.0)
             raise ValueError(f"{self.filter} filter {what} {self.filter_radius:g} is too wide: at most {most:g} "
                              f"pixels (a wider filter is a blur; its cost grows with the square of the width)")
         if self.accel not in ACCELERATORS:
@@ -86,6 +95,9 @@ class RenderOptions:
                              f"{', '.join(DENOISE_QUALITIES)})")
         if self.grid is not None:
             check_grid(self.grid)
+        if self.crop is not None and (len(self.crop) != 4 or any(int(v) != v for v in self.crop)
+                                      or min(self.crop[:2]) < 0 or min(self.crop[2:]) < 1):
+            raise ValueError(f"crop is (x, y, width, height): offsets >= 0 and sizes >= 1, got {self.crop}")
 
 
 def check_grid(dims) -> None:

@@ -18,9 +18,9 @@ from functools import cached_property
 
 import numpy as np
 
-from ..kernels.common import MISS, PLANE, SPHERE, TRIANGLE  # noqa: F401  (re-exported: the hit kinds)
+from ..kernels.common import CYLINDER_CODE, DISK_CODE, MISS, PLANE, SPHERE, TRIANGLE  # noqa: F401  (hit kinds)
 from ..scene.graph import Group, Scene, Transform
-from ..scene.shapes import Plane, Sphere, Triangle, TriangleMesh
+from ..scene.shapes import Cylinder, Disk, Plane, Sphere, Triangle, TriangleMesh
 
 
 @dataclass
@@ -30,7 +30,7 @@ class CompiledScene:
     triangles: np.ndarray          # (F, 3, 3) world-space vertices
     triangle_material: np.ndarray  # (F,) int32
     sphere_center: np.ndarray      # (S, 3) object space
-    sphere_radius: np.ndarray      # (S,)
+    sphere_radius: np.ndarray      # (S,) > 0; or DISK_CODE, CYLINDER_CODE: the unit disk, cylinder (kernels/common)
     sphere_world_to_object: np.ndarray  # (S, 3, 4) affine
     sphere_normal_matrix: np.ndarray    # (S, 3, 3) object normal -> world normal (inverse transpose)
     sphere_material: np.ndarray    # (S,) int32
@@ -118,6 +118,23 @@ class CompiledScene:
             return np.full((len(ids), width), fill)
         corners = self._corners(ids, tri_attr, mesh_attr, normals=False)
         return np.einsum("nc,nck->nk", self._barycentric(ids, points), corners)
+
+    def analytic_uv(self, ids, points: np.ndarray) -> np.ndarray:
+        """Texture coordinates (n, 2) at world `points` on analytic shapes `ids` (hit kind SPHERE), as Mitsuba
+        defines them from the object-space point: spheres (phi / 2 pi, theta / pi), disks (r, phi / 2 pi),
+        cylinders (phi / 2 pi, z), phi = atan2(y, x) in [0, 2 pi)."""
+        ids = np.asarray(ids, dtype=np.int64)
+        w2o = self.sphere_world_to_object[ids]
+        q = np.einsum("nij,nj->ni", w2o[:, :, :3], np.asarray(points, dtype=np.float64)) + w2o[:, :, 3]
+        code = self.sphere_radius[ids]
+        q = np.where((code > 0)[:, None], q - self.sphere_center[ids], q)
+        phi = np.arctan2(q[:, 1], q[:, 0])
+        phi = np.where(phi < 0, phi + 2.0 * np.pi, phi) / (2.0 * np.pi)
+        radius = np.maximum(np.linalg.norm(q, axis=1), 1e-300)
+        theta = np.arccos(np.clip(q[:, 2] / radius, -1.0, 1.0)) / np.pi
+        u = np.where(code == DISK_CODE, np.hypot(q[:, 0], q[:, 1]), phi)
+        v = np.where(code == DISK_CODE, phi, np.where(code == CYLINDER_CODE, q[:, 2], theta))
+        return np.stack([u, v], axis=1)
 
     def uv_at(self, ids, points: np.ndarray) -> np.ndarray:
         """Texture coordinates (n, 2) at world `points` on virtual triangles `ids` (barycentric interpolation of the
@@ -254,7 +271,8 @@ def _union(boxes) -> tuple[np.ndarray, np.ndarray]:
 
 
 def sphere_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
-    """Exact world boxes (S,3) of the (possibly transformed) spheres: centre +- r * row norms of M."""
+    """Exact world boxes (S,3) of the (possibly transformed) analytic shapes: spheres centre +- r * row norms of
+    M; disks centre +- the row norms of M's first two columns, cylinders the box around their two end disks."""
     if not len(cs.sphere_radius):
         return np.zeros((0, 3)), np.zeros((0, 3))
     inv = np.zeros((len(cs.sphere_radius), 4, 4))
@@ -264,7 +282,14 @@ def sphere_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
     center = np.einsum("sij,sj->si", m[:, :3, :3], cs.sphere_center) + m[:, :3, 3]
     with np.errstate(over="ignore"):  # a sphere scaled by 1e200: its box is infinite, not a warning on stderr
         extent = cs.sphere_radius[:, None] * np.linalg.norm(m[:, :3, :3], axis=2)
-    return center - extent, center + extent
+    lo, hi = center - extent, center + extent
+    code = cs.sphere_radius <= 0
+    if code.any():
+        rim = np.linalg.norm(m[code, :3, :2], axis=2)  # half extents of the unit disk's image
+        base = m[code, :3, 3]
+        top = base + np.where((cs.sphere_radius[code] == CYLINDER_CODE)[:, None], m[code, :3, 2], 0.0)
+        lo[code], hi[code] = np.minimum(base, top) - rim, np.maximum(base, top) + rim
+    return lo, hi
 
 
 # The course's triangle test accepts points slightly outside a triangle: barycentric weights of vertex1 and vertex2
@@ -333,7 +358,9 @@ def _leaves(group: Group) -> list[tuple[object, np.ndarray, bool]]:
             stack.extend((child, m, moved) for child in reversed(obj.objects))
         elif isinstance(obj, Transform):
             stack.append((obj.object, m @ obj.matrix, True))
-        elif isinstance(obj, (Sphere, Plane, Triangle, TriangleMesh)):
+        elif isinstance(obj, Cylinder):
+            out.append((obj, m @ obj.object_matrix(), moved))
+        elif isinstance(obj, (Sphere, Disk, Plane, Triangle, TriangleMesh)):
             out.append((obj, m, moved))
         else:
             raise TypeError(f"not a scene object: {type(obj).__name__}")
@@ -368,9 +395,11 @@ def compile_scene(scene: Scene) -> CompiledScene:
     instances: list[tuple] = []
 
     for obj, m, moved in leaves:
-        if isinstance(obj, Sphere):
+        if isinstance(obj, (Sphere, Disk, Cylinder)):  # analytic shapes: object space through their matrix
             inv = np.linalg.inv(m)
-            sph.append((obj.center, obj.radius, inv[:3, :], inv[:3, :3].T, obj.material, moved))
+            center, radius = ((obj.center, obj.radius) if isinstance(obj, Sphere) else
+                              (np.zeros(3), DISK_CODE if isinstance(obj, Disk) else CYLINDER_CODE))
+            sph.append((center, radius, inv[:3, :], inv[:3, :3].T, obj.material, moved))
         elif isinstance(obj, Plane):
             n = obj.normal / np.linalg.norm(obj.normal)
             d = obj.offset / np.linalg.norm(obj.normal)

@@ -40,6 +40,8 @@ def _sphere_boxes(cs: CompiledScene, as_box: np.ndarray) -> tuple[np.ndarray, np
     pts = lo[:, None, :] + corners[None] * (hi - lo)[:, None, :]                   # (S, 8, 3) object space
     world = np.einsum("sij,skj->ski", o2w[:, :3, :3], pts) + o2w[:, None, :3, 3]
     wlo, whi = world.min(axis=1), world.max(axis=1)
+    code = (cs.sphere_radius <= 0)[:, None]  # disks and cylinders: their exact boxes (compile.sphere_bounds)
+    wlo, whi = np.where(code, cs.sphere_lo, wlo), np.where(code, cs.sphere_hi, whi)
     return np.where(as_box[:, None], wlo, lo), np.where(as_box[:, None], whi, hi)
 
 
@@ -68,7 +70,8 @@ class GridAccelerator:
         moved = ~np.all(cs.sphere_world_to_object == identity, axis=(1, 2))  # rasterising needs world = object
         if sphere_as_box is None:
             sphere_as_box = cs.sphere_transformed
-        self.sphere_as_box = np.asarray(sphere_as_box, dtype=bool).reshape(len(cs.sphere_radius)) | moved
+        self.sphere_as_box = (np.asarray(sphere_as_box, dtype=bool).reshape(len(cs.sphere_radius)) | moved
+                              | (cs.sphere_radius <= 0))  # disks and cylinders are never rasterised as spheres
         sph_lo, sph_hi = _sphere_boxes(cs, self.sphere_as_box)
         self.lo, self.hi = self._bounds(cs, sph_lo, sph_hi)
         self.size = (self.hi - self.lo) / self.dims

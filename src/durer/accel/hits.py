@@ -8,7 +8,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..kernels.common import MISS, PLANE, SPHERE, TRIANGLE
+from ..kernels.common import CYLINDER_CODE, DISK_CODE, MISS, PLANE, SPHERE, TRIANGLE
 from .compile import CompiledScene
 
 
@@ -74,8 +74,8 @@ class Accelerator(Protocol):
 def geometric_normals(cs: CompiledScene, hits: Hits, points: np.ndarray) -> np.ndarray:
     """Unit world-space normals (N,3) at the hit points, as the surface defines them (not flipped to the ray).
 
-    Triangles: (v1 - v0) x (v2 - v0); spheres: the object-space radial direction through the inverse transpose;
-    planes: their normal. Misses get (0, 0, 0).
+    Triangles: (v1 - v0) x (v2 - v0); spheres: the object-space radial direction through the inverse transpose
+    (disks: object +z, cylinders: (x, y, 0) outward); planes: their normal. Misses get (0, 0, 0).
     """
     n = np.zeros((len(hits.t), 3))
     m = hits.kind == TRIANGLE
@@ -88,6 +88,9 @@ def geometric_normals(cs: CompiledScene, hits: Hits, points: np.ndarray) -> np.n
         w2o = cs.sphere_world_to_object[k]
         p_obj = np.einsum("nij,nj->ni", w2o[:, :, :3], points[m]) + w2o[:, :, 3]
         n_obj = p_obj - cs.sphere_center[k]
+        code = cs.sphere_radius[k]
+        n_obj[code == CYLINDER_CODE, 2] = 0.0
+        n_obj[code == DISK_CODE] = (0.0, 0.0, 1.0)
         n[m] = np.einsum("nij,nj->ni", cs.sphere_normal_matrix[k], n_obj)
     m = hits.kind == PLANE
     if m.any():

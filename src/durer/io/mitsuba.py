@@ -72,7 +72,7 @@ _DICT_TYPES = {
     "sensor": ("perspective", "thinlens", "orthographic"), "film": ("hdrfilm", "specfilm"),
     "rfilter": ("box", "tent", "gaussian", "mitchell", "catmullrom", "lanczos"),
     "sampler": ("independent", "stratified", "multijitter", "orthogonal", "ldsampler"),
-    "shape": ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "shapegroup",
+    "shape": ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "sdfgrid", "shapegroup",
               "instance"),
     "bsdf": ("diffuse", "dielectric", "thindielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
              "roughplastic", "twosided", "blendbsdf", "mask", "bumpmap", "normalmap", "principled", "null"),

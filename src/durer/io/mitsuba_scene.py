@@ -12,10 +12,10 @@ import numpy as np
 from ..scene import bsdfs as B
 from ..scene.cameras import OrthographicCamera, PerspectiveCamera
 from ..scene.graph import Group, Scene
-from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
+from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight, SpotLight
 from .images import read_hdr
 from .mitsuba_bsdfs import build_bsdf, build_texture, colour
-from .mitsuba_shapes import DISK_SEGMENTS, build_shape  # noqa: F401  (DISK_SEGMENTS: README's known differences)
+from .mitsuba_shapes import build_shape
 from .mitsuba_tree import Props, call
 from .mitsuba_xml import MAX_DEPTH
 
@@ -155,8 +155,8 @@ class Builder:
             raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in integrator '{t}'")
 
     def sensor(self, node) -> None:
-        if node.type not in ("perspective", "orthographic"):
-            raise node.error(f"unsupported sensor '{node.type}' (durer reads perspective and orthographic)")
+        if node.type not in ("perspective", "thinlens", "orthographic"):
+            raise node.error(f"unsupported sensor '{node.type}' (durer reads perspective, thinlens and orthographic)")
         if self.camera is not None:
             raise node.error("durer renders one sensor per scene")
         if node.type == "orthographic":
@@ -166,8 +166,16 @@ class Builder:
         axis = p.get("fov_axis", "x", str).lower()
         focal = p.get("focal_length", None)
         near = p.get("near_clip", 0.01, float)
-        p.get("far_clip", None, float)
-        p.get("focus_distance", None, float)  # a pinhole: focus does not matter
+        far = p.get("far_clip", 10000.0, float)
+        aperture = p.get("aperture_radius", None if node.type == "thinlens" else 0.0, float)
+        if aperture is None:
+            raise node.error("thinlens needs an aperture_radius")
+        focus = p.get("focus_distance", far, float)  # a pinhole's does not matter
+        if not aperture >= 0 or (aperture > 0 and not focus > 0):
+            raise node.error(f"thinlens needs aperture_radius >= 0 and focus_distance > 0, got {aperture:g} and "
+                             f"{focus:g}")
+        if node.type == "perspective":
+            aperture = 0.0
         m = p.get("to_world", np.eye(4), "matrix")
         if fov is not None and focal is not None:
             raise node.error("give either fov or focal_length, not both")
@@ -192,7 +200,10 @@ class Builder:
         origin, left, up, direction = m[:3, 3], m[:3, 0], m[:3, 1], m[:3, 2]
         if np.dot(np.cross(direction, up), -left) <= 0:
             raise node.error("the sensor's to_world mirrors the image (durer's cameras are right-handed)")
-        cam = call(node, PerspectiveCamera, origin, direction, up, math.degrees(2 * math.atan(tan_long)))
+        # the lens's sizes are in camera space: to_world's scale moves them into the world
+        aperture, focus = aperture * np.linalg.norm(left), focus * np.linalg.norm(direction)
+        cam = call(node, PerspectiveCamera, origin, direction, up, math.degrees(2 * math.atan(tan_long)), aperture,
+                   focus if aperture > 0 else 1.0)
         cam.t_min = near
         self.camera = cam
 
@@ -237,25 +248,53 @@ class Builder:
         width, height = p.get("width", 768, int), p.get("height", 576, int)
         if not (1 <= width <= 65536 and 1 <= height <= 65536):
             raise node.error("film width and height must be between 1 and 65536")
-        for name in ("pixel_format", "component_format", "file_format"):
+        pixel_format = p.get("pixel_format", "rgb", str).lower()
+        if pixel_format not in ("rgb", "rgba"):
+            raise node.error(f"durer's films are rgb or rgba, not pixel_format '{pixel_format}'",
+                             p.where("pixel_format"))
+        if pixel_format == "rgba":
+            self.defaults["alpha"] = True
+        for name in ("component_format", "file_format"):
             p.get(name, None, str)
         p.get("banner", None, bool)
+        x, y = p.get("crop_offset_x", 0, int), p.get("crop_offset_y", 0, int)
+        w, h = p.get("crop_width", width - x, int), p.get("crop_height", height - y, int)
+        if min(x, y) < 0 or min(w, h) < 1 or x + w > width or y + h > height:
+            raise node.error(f"the crop window {w} x {h} at ({x}, {y}) must lie inside the {width} x {height} film")
+        if (x, y, w, h) != (0, 0, width, height):
+            self.defaults["crop"] = (x, y, w, h)
         p.done()
-        self.defaults["filter"], self.defaults["filter_radius"] = "gaussian", 0.5  # Mitsuba's default rfilter
+        # Mitsuba's default rfilter: its gaussian (rendering/film.py's mitsuba_gaussian, 4 sigma wide)
+        self.defaults["filter"], self.defaults["filter_radius"] = "mitsuba_gaussian", 0.5
         for child in node.children:
             child = self.resolve(child)
             if child.tag != "rfilter":
                 raise child.error(f"<{child.tag}> cannot appear in a film")
-            f = Props(child)
-            if child.type not in ("box", "tent", "gaussian"):
-                raise child.error(f"unsupported rfilter '{child.type}' (use box, tent or gaussian)")
-            radius = f.get("stddev", 0.5, float) if child.type == "gaussian" else \
-                f.get("radius", 0.5 if child.type == "box" else 1.0, float)
-            f.done()
-            if not radius > 0:
-                raise child.error("filter radius must be positive")
-            self.defaults["filter"], self.defaults["filter_radius"] = child.type, radius
+            self.defaults["filter"], self.defaults["filter_radius"] = self._rfilter(child)
         return width, height
+
+    def _rfilter(self, node) -> tuple[str, float]:
+        """A Mitsuba rfilter as durer's filter name and radius (rendering/film.py)."""
+        f = Props(node)
+        t = node.type
+        if t not in ("box", "tent", "gaussian", "mitchell", "lanczos"):
+            raise node.error(f"unsupported rfilter '{t}' (use box, tent, gaussian, mitchell or lanczos)")
+        if t == "mitchell":
+            b, c = f.get("B", 1.0 / 3.0, float), f.get("C", 1.0 / 3.0, float)
+            if abs(b - 1.0 / 3.0) > 1e-6 or abs(c - 1.0 / 3.0) > 1e-6:
+                raise node.error("durer's mitchell filter has Mitsuba's default B = C = 1/3 only")
+            radius = 2.0
+        elif t == "lanczos":
+            radius = float(f.get("lobes", 3, int))
+        elif t == "gaussian":
+            radius = f.get("stddev", 0.5, float)
+        else:
+            radius = f.get("radius", 0.5 if t == "box" else 1.0, float)
+        f.done()
+        if not radius > 0:
+            raise node.error("filter radius must be positive")
+        return {"gaussian": "mitsuba_gaussian"}.get(t, t), radius
+
 
     def sampler(self, node) -> None:
         if node.type not in SAMPLERS:
@@ -285,6 +324,9 @@ class Builder:
             pos = pos if pos is not None else (m[:3, 3] if m is not None else np.zeros(3))
             out = call(node, PointLight, pos, B.rgb(colour(self, node, p, "intensity", 1.0)), (0.0, 0.0, 1.0))
             self.lights.append(out)
+        elif t == "spot":
+            out = self._spot(node, p)
+            self.lights.append(out)
         elif t == "directional":
             m = p.get("to_world", None, "matrix")
             d = p.get("direction", None, "vec")
@@ -300,11 +342,29 @@ class Builder:
                 out = self._envmap(node, p)
             self.environment = out
         else:
-            raise node.error(f"unsupported emitter '{t}' (use area, point, directional, constant or envmap)")
+            raise node.error(f"unsupported emitter '{t}' (use area, point, spot, directional, constant or envmap)")
         p.done()
         if node.children:
             raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in emitter '{t}'")
         return out
+
+    def _spot(self, node, p) -> SpotLight:
+        """Mitsuba's spot: at to_world's origin along its +z, intensity / d^2, full inside beam_width (default 3/4
+        of cutoff_angle, 20 degrees), falling off linearly in the angle to 0 at cutoff_angle."""
+        for child in node.children:
+            if child.tag == "texture":
+                raise child.error("spot: a projected texture is not read yet (durer renders the spot without one "
+                                  "only)")
+        m = p.get("to_world", np.eye(4), "matrix")
+        cutoff = p.get("cutoff_angle", 20.0, float)
+        beam = p.get("beam_width", 0.75 * cutoff, float)
+        intensity = B.rgb(colour(self, node, p, "intensity", 1.0))
+        if not 0 < cutoff <= 90 or not 0 <= beam < cutoff:
+            raise node.error(f"spot: durer needs 0 <= beam_width < cutoff_angle <= 90 degrees, got {beam:g} and "
+                             f"{cutoff:g}")
+        frame = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+        return call(node, SpotLight, m[:3, 3], m[:3, 2], intensity, beam, cutoff, (0.0, 0.0, 1.0), "angle",
+                    frame[:, 0], frame[:, 1])
 
     def _envmap(self, node, p) -> EnvironmentMap:
         filename = p.get("filename", None, str)

@@ -1,24 +1,25 @@
 """Mitsuba 3 shape plugins -> durer geometry placed by Transforms: mesh files (obj, ply through trimesh; serialized
-through io/serialized.py), rectangle, cube, sphere, disk, and shapegroup + instance (a group of shapes placed
-several times, which durer stores once and traces two-level). Each shape gets its own material slot (BSDF, area
-emission, flipped normals)."""
+through io/serialized.py), rectangle and cube (meshes with Mitsuba's texture coordinates), the analytic sphere, disk
+and cylinder, sdfgrid (its level set triangulated, io/sdfgrid.py), and shapegroup + instance (a group of shapes
+placed several times, which durer stores once and traces two-level). Each shape gets its own material slot (BSDF,
+area emission, flipped normals)."""
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from ..scene import bsdfs as B
 from ..scene.graph import Group, Transform
-from ..scene.shapes import Sphere, TriangleMesh
+from ..scene.shapes import Cylinder, Disk, Sphere, TriangleMesh
 from .files import read_bytes
 from .mitsuba_bsdfs import textured
 from .mitsuba_tree import Props, call
+from .sdfgrid import read_vol, sdf_mesh
 from .serialized import read_serialized
 
-DISK_SEGMENTS = 256
-SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "shapegroup", "instance")
+SHAPES = ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "sdfgrid", "shapegroup",
+          "instance")
+ANALYTIC = (Sphere, Disk, Cylinder)  # texture coordinates computed at the hit (CompiledScene.analytic_uv)
 
 
 def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
@@ -45,11 +46,13 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
                                 uvs=[[0, 0], [1, 0], [1, 1], [0, 1]])
     elif t == "cube":
         geometry = _cube()
+    elif t == "sdfgrid":
+        geometry = _sdfgrid(builder, node, p)
     elif t == "disk":
-        a = np.linspace(0.0, 2.0 * np.pi, DISK_SEGMENTS, endpoint=False)
-        v = np.vstack([[0.0, 0.0, 0.0], np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])])
-        i = np.arange(DISK_SEGMENTS)
-        geometry = TriangleMesh(v, np.column_stack([np.zeros_like(i), 1 + i, 1 + (i + 1) % DISK_SEGMENTS]))
+        geometry = Disk()
+    elif t == "cylinder":
+        geometry = call(node, Cylinder, p.get("p0", np.zeros(3), "vec"), p.get("p1", np.array([0.0, 0.0, 1.0]), "vec"),
+                        p.get("radius", 1.0, float))
     else:  # sphere
         geometry = call(node, Sphere, p.get("center", np.zeros(3), "vec"), p.get("radius", 1.0, float))
     p.done()
@@ -66,9 +69,8 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
             radiance = builder.emitter(child, shape=node)
         else:
             raise child.error(f"<{child.tag}> cannot appear in a shape")
-    if textured(bsdf) and getattr(geometry, "uvs", None) is None:
-        raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's textures (durer has them for "
-                         "meshes with UVs and rectangles)")
+    if textured(bsdf) and not isinstance(geometry, ANALYTIC) and getattr(geometry, "uvs", None) is None:
+        raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's textures (its mesh file has none)")
     builder.materials.append(call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip))
     geometry.material = len(builder.materials) - 1
     out.append(Transform(m, geometry))
@@ -138,20 +140,40 @@ def _mesh_file(builder, node, p: Props) -> TriangleMesh:
                 normals=None if face_normals else normals)
 
 
+def _sdfgrid(builder, node, p: Props) -> TriangleMesh:
+    """Mitsuba's sdfgrid (a .vol file or a `grid` array, [z, y, x] or [z, y, x, 1]) as the triangles of its zero
+    level set in the unit cube (io/sdfgrid.py)."""
+    filename, grid = p.get("filename", None, str), p.get("grid", None)
+    normals = p.get("normals", "smooth", str)
+    if normals not in ("smooth", "analytic"):
+        raise node.error(f"sdfgrid normals must be 'smooth' or 'analytic', got {normals!r}", p.where("normals"))
+    if (filename is None) == (grid is None):
+        raise node.error("sdfgrid needs a filename or a grid (one of them)")
+    path = None if filename is None else builder.file(node, filename, p.where("filename"), "volume file")
+    try:
+        if path is not None:
+            grid = read_vol(read_bytes(path, "volume file"))
+        grid = np.asarray(grid, dtype=np.float64)
+        grid = grid[..., 0] if grid.ndim == 4 and grid.shape[3] == 1 else grid
+        if grid.ndim != 3 or min(grid.shape) < 2 or not np.isfinite(grid).all():
+            raise ValueError(f"a grid is a finite [z, y, x] array at least 2 a side, got shape {grid.shape}")
+    except (TypeError, ValueError) as e:
+        raise node.error(f"sdfgrid: {e}", p.where("filename" if filename is not None else "grid")) from None
+    vertices, faces, vertex_normals = sdf_mesh(grid)
+    if not len(faces):
+        raise node.error("sdfgrid: the grid has no surface (no sign change)")
+    # Mitsuba's sdfgrid has texture coordinates (0, 0) everywhere (measured): a texture shows its value there
+    return call(node, TriangleMesh, vertices, faces, source=path, normals=vertex_normals,
+                uvs=np.zeros((len(vertices), 2)))
+
+
 def _cube() -> TriangleMesh:
-    """[-1, 1]^3 with outward-facing triangles."""
-    v = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
-    faces = []
-    for axis in range(3):
-        for sign in (-1, 1):
-            quad = [i for i in range(8) if v[i, axis] == sign]
-            c = v[quad].mean(0)
-            normal = np.zeros(3)
-            normal[axis] = sign
-            e1, e2 = np.eye(3)[(axis + 1) % 3], np.eye(3)[(axis + 2) % 3]
-            quad.sort(key=lambda i: math.atan2((v[i] - c) @ e2, (v[i] - c) @ e1))
-            a, b, c2, d = quad
-            for tri in ((a, b, c2), (a, c2, d)):
-                n = np.cross(v[tri[1]] - v[tri[0]], v[tri[2]] - v[tri[0]])
-                faces.append(tri if n @ normal > 0 else (tri[0], tri[2], tri[1]))
-    return TriangleMesh(v, np.array(faces))
+    """Mitsuba's cube: [-1, 1]^3 as 12 outward-facing triangles over 24 vertices (four a face), with its texture
+    coordinates (each face [0, 1]^2), the arrays of Mitsuba's cube.cpp."""
+    v = np.array([[1, -1, -1], [1, -1, 1], [-1, -1, 1], [-1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, 1, 1], [1, 1, 1],
+                  [1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1], [-1, -1, 1],
+                  [-1, -1, 1], [-1, 1, 1], [-1, 1, -1], [-1, -1, -1], [1, 1, -1], [1, -1, -1], [-1, -1, -1],
+                  [-1, 1, -1]], dtype=np.float64)
+    uv = np.tile([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]], (6, 1))
+    faces = np.array([tri for q in range(0, 24, 4) for tri in ([q, q + 1, q + 2], [q + 3, q, q + 2])])
+    return TriangleMesh(v, faces, uvs=uv)

@@ -12,6 +12,8 @@ import math
 import numba as nb
 import numpy as np
 
+from .common import DISK_CODE
+
 INF = np.inf
 _U3, _U6 = np.uint64(3), np.uint64(6)
 
@@ -152,12 +154,56 @@ def intersect_triangle(ox, oy, oz, dx, dy, dz, tri, t_min, t_max):
 
 
 @nb.njit(cache=True, inline="always")
+def intersect_disk(ox, oy, oz, dx, dy, dz, t_min, t_max):
+    """t where the ray meets the unit disk x^2 + y^2 <= 1 of the plane z = 0 (Mitsuba's disk in object space)."""
+    if dz == 0.0:
+        return INF
+    t = -oz / dz
+    if not t_min < t < t_max:
+        return INF
+    x, y = ox + t * dx, oy + t * dy
+    if x * x + y * y <= 1.0:
+        return t
+    return INF
+
+
+@nb.njit(cache=True, inline="always")
+def intersect_cylinder(ox, oy, oz, dx, dy, dz, t_min, t_max):
+    """Nearest t with t_min < t < t_max where the ray meets the open cylinder x^2 + y^2 = 1, 0 <= z <= 1
+    (Mitsuba's cylinder in object space: no caps, so the far wall shows through the ends)."""
+    a = dx * dx + dy * dy
+    b = ox * dx + oy * dy
+    c = ox * ox + oy * oy - 1.0
+    disc = b * b - a * c
+    if disc < 0.0 or a == 0.0:
+        return INF
+    sq = math.sqrt(disc)
+    q = -(b + sq) if b >= 0.0 else -(b - sq)
+    if q == 0.0:
+        return INF
+    t0, t1 = q / a, c / q
+    if t0 > t1:
+        t0, t1 = t1, t0
+    if t_min < t0 < t_max and 0.0 <= oz + t0 * dz <= 1.0:
+        return t0
+    if t_min < t1 < t_max and 0.0 <= oz + t1 * dz <= 1.0:
+        return t1
+    return INF
+
+
+@nb.njit(cache=True, inline="always")
 def sphere_hit_in_object_space(o, d, center, radius, w2o, t_min, t_max):
-    """Intersect a sphere seen through the affine world-to-object matrix w2o (3x4); t stays in world units."""
+    """Intersect an analytic shape seen through the affine world-to-object matrix w2o (3x4); t stays in world
+    units. A positive radius is a sphere (an ellipsoid in the world); DISK_CODE and CYLINDER_CODE name the unit
+    disk and cylinder (kernels/common.py)."""
     ox = w2o[0, 0] * o[0] + w2o[0, 1] * o[1] + w2o[0, 2] * o[2] + w2o[0, 3]
     oy = w2o[1, 0] * o[0] + w2o[1, 1] * o[1] + w2o[1, 2] * o[2] + w2o[1, 3]
     oz = w2o[2, 0] * o[0] + w2o[2, 1] * o[1] + w2o[2, 2] * o[2] + w2o[2, 3]
     dx = w2o[0, 0] * d[0] + w2o[0, 1] * d[1] + w2o[0, 2] * d[2]
     dy = w2o[1, 0] * d[0] + w2o[1, 1] * d[1] + w2o[1, 2] * d[2]
     dz = w2o[2, 0] * d[0] + w2o[2, 1] * d[1] + w2o[2, 2] * d[2]
-    return intersect_sphere(ox, oy, oz, dx, dy, dz, center[0], center[1], center[2], radius, t_min, t_max)
+    if radius > 0.0:
+        return intersect_sphere(ox, oy, oz, dx, dy, dz, center[0], center[1], center[2], radius, t_min, t_max)
+    if radius == DISK_CODE:
+        return intersect_disk(ox, oy, oz, dx, dy, dz, t_min, t_max)
+    return intersect_cylinder(ox, oy, oz, dx, dy, dz, t_min, t_max)

@@ -52,6 +52,10 @@ def resolve(scene: Scene, width: int | None, height: int | None, options: Render
     if int(width) != width or int(height) != height or width < 1 or height < 1:
         raise ValueError(f"image size must be positive integers, got {width} x {height}")
     options = make_options(options, **kwargs)
+    if options.crop is not None:
+        x, y, w, h = options.crop
+        if x + w > width or y + h > height:
+            raise ValueError(f"crop window {w} x {h} at ({x}, {y}) does not fit in the {width} x {height} image")
     if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in scene.materials):
         raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
                          "integrator='path'")

@@ -1,11 +1,11 @@
-"""Emitters of the path tracer: area lights (every shape whose material slot emits), point and directional lights
-and a constant environment, with light sampling (next-event estimation) and the pdf of reaching an emitter by a
+"""Emitters of the path tracer: area lights (every shape whose material slot emits), point, spot and directional
+lights and a constant environment, with light sampling (next-event estimation) and the pdf of reaching an emitter by a
 BSDF-sampled ray (for multiple importance sampling).
 
 As in Mitsuba 3, an emitter is picked uniformly, then sampled: a triangle mesh emitter (all triangles of one
-emissive material slot) by area, a sphere by the solid angle of the cone it subtends (by area from inside it), the
-environment uniformly over the sphere of directions. Area lights emit from the front side of their (possibly
-flipped) normals only.
+emissive material slot) by area, a sphere by the solid angle of the cone it subtends (by area from inside it), a disk
+or cylinder by area through its parametrisation, the environment uniformly over the sphere of directions. Area lights
+emit from the front side of their (possibly flipped) normals only.
 
 Course scenes: a course light's colour is scaled by pi (point lights keep their a + b d + c d^2 attenuation), so
 that a diffuse surface of colour kd lit by it looks as in the ray caster (kd * colour * cos); the ambient light
@@ -23,26 +23,38 @@ from ..accel.compile import CompiledScene
 from ..kernels.path.emitters import (
     AREA,
     AREA_MESH,
+    AREA_SHAPE,
     AREA_SPHERE,
     ATTENUATION,
+    AXIS,
     CENTER,
+    COS_INNER,
+    COS_OUTER,
     DIRECTION,
     DIRECTIONAL,
     ENVIRONMENT,
     ENVMAP,
+    FALLOFF,
     FIRST_CDF,
     FIRST_TRI,
+    INNER,
+    O2W,
+    OUTER,
     PARAMS,
     POINT,
     POSITION,
     RADIUS,
+    SHAPE_CODE,
+    SHAPE_FLIP,
     SPHERE_FLIP,
+    SPOT,
     TRI_COUNT,
+    W2O,
     light_pdf_kernel,
     sample_lights_kernel,
 )
 from ..scene.graph import Scene
-from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight
+from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight, SpotLight
 from .bsdfs import BSDFTable
 from .envmap import EnvMapLight, no_envmap
 
@@ -94,15 +106,23 @@ class Emitters:
         e.sphere_emitter = np.full(len(cs.sphere_radius), -1, np.int64)
         for k in range(len(cs.sphere_radius)):
             slot = int(cs.sphere_material[k])
-            if slot < len(emits) and emits[slot]:
-                center, radius = _world_sphere(cs, k)
-                e.sphere_emitter[k] = e.count
-                e._add(AREA_SPHERE, table.emission[slot],
-                       dict(center=center, radius=radius, flip=bool(table.flip[slot])))
+            if not (slot < len(emits) and emits[slot]):
+                continue
+            e.sphere_emitter[k] = e.count
+            if cs.sphere_radius[k] <= 0:  # a disk or cylinder (kernels/common.py's codes)
+                w2o = np.vstack([cs.sphere_world_to_object[k], [0, 0, 0, 1.0]])
+                e._add(AREA_SHAPE, table.emission[slot], dict(o2w=np.linalg.inv(w2o)[:3], w2o=w2o[:3],
+                                                              code=cs.sphere_radius[k], flip=bool(table.flip[slot])))
+                continue
+            center, radius = _world_sphere(cs, k)
+            e._add(AREA_SPHERE, table.emission[slot], dict(center=center, radius=radius, flip=bool(table.flip[slot])))
         scale = 1.0 if scene.radiometric_lights else np.pi
         for light in scene.lights or []:
             if isinstance(light, PointLight):
                 e._add(POINT, scale * light.color, dict(position=light.position, attenuation=light.attenuation))
+            elif isinstance(light, SpotLight):
+                e._add(SPOT, scale * light.color, dict(position=light.position, attenuation=light.attenuation,
+                                                       light=light))
             elif isinstance(light, DirectionalLight):
                 e._add(DIRECTIONAL, scale * light.color, dict(direction=light.direction))
         env = scene.environment
@@ -141,9 +161,18 @@ class Emitters:
                 elif kind == AREA_SPHERE:
                     F[e, CENTER:CENTER + 3] = data["center"]
                     F[e, RADIUS], F[e, SPHERE_FLIP] = data["radius"], data["flip"]
-                elif kind == POINT:
+                elif kind == AREA_SHAPE:
+                    F[e, O2W:O2W + 12], F[e, W2O:W2O + 12] = data["o2w"].reshape(12), data["w2o"].reshape(12)
+                    F[e, SHAPE_CODE], F[e, SHAPE_FLIP] = data["code"], data["flip"]
+                elif kind in (POINT, SPOT):
                     F[e, POSITION:POSITION + 3] = data["position"]
                     F[e, ATTENUATION:ATTENUATION + 3] = data["attenuation"]
+                    if kind == SPOT:
+                        s = data["light"]
+                        outer, inner = np.radians(s.outer_angle), np.radians(s.inner_angle)
+                        F[e, AXIS:AXIS + 3] = s.direction
+                        F[e, [COS_OUTER, COS_INNER, OUTER, INNER]] = np.cos(outer), np.cos(inner), outer, inner
+                        F[e, FALLOFF] = s.falloff == "angle"
                 elif kind == DIRECTIONAL:
                     F[e, DIRECTION:DIRECTION + 3] = data["direction"]
             radiance = np.array(self.radiance).reshape(self.count, 3)

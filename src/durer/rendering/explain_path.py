@@ -187,7 +187,7 @@ def explain_path_pixel(ctx: RenderContext, width: int, height: int, x: int, y: i
     tracer = PathTracer(ctx)
     camera = image_camera(ctx.scene.camera, width, height)
     pts, pix, sidx, weights = path_samples(width, height, x, y, options)
-    origins, directions, valid = camera.generate_rays(pts, width, height)
+    origins, directions, valid = film.camera_rays(camera, pts, width, height, options, pix, sidx)
     lo, hi = ctx.compiled.bounds()
     recorder = _Recorder(tracer, max(float(np.linalg.norm(hi - lo)) * 2.0, 1.0))
     v = np.flatnonzero(valid)

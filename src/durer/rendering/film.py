@@ -24,6 +24,10 @@ Assignment 7 of the course, for any sample count n:
   pixels within the filter's integer support radius (cropped at the image border), ceil(extent - 1/2) with extent
   r for box and tent and 2 sigma for the gaussian. The gaussian is not clamped to zero beyond 2 sigma inside that
   support: the reference filter7_*.png images show exp(-2) = 0.135 at the corners of the support.
+  Mitsuba 3's filters are separable, w(dx) w(dy), as its film weighs samples: `mitchell` (Mitchell-Netravali,
+  B = C = 1/3, over radius r: Mitsuba's has r = 2), `lanczos` (sinc(x) sinc(x / r), r lobes: Mitsuba's 3) and
+  `mitsuba_gaussian` (exp(-x^2 / 2 sigma^2) less its value at 4 sigma, zero beyond: Mitsuba's gaussian). Their
+  negative lobes (mitchell, lanczos) are kept, as Mitsuba keeps them.
   `reconstruct` filters every sample of an image at once; `gather` does the same for one tile from the samples of
   the tile and its halo (the render's units, units.py), in the same order, so both give the same bits.
 """
@@ -38,8 +42,12 @@ import numpy as np
 from ..options import RenderOptions
 from .sampling import PIXEL_KEY, key, sobol_pair
 
-BOX, TENT, GAUSSIAN = 0, 1, 2
-_FILTER_CODES = {"box": BOX, "tent": TENT, "gaussian": GAUSSIAN}
+LENS_KEY = PIXEL_KEY - 1  # the sample index of a pixel's aperture stream (lens_samples), never a real one
+
+BOX, TENT, GAUSSIAN, MITCHELL, LANCZOS, MITSUBA_GAUSSIAN = range(6)
+_FILTER_CODES = {"box": BOX, "tent": TENT, "gaussian": GAUSSIAN, "mitchell": MITCHELL, "lanczos": LANCZOS,
+                 "mitsuba_gaussian": MITSUBA_GAUSSIAN}
+_B = _C = 1.0 / 3.0  # Mitchell and Netravali's recommended pair, Mitsuba's defaults
 
 
 # --- sampling ----------------------------------------------------------------------------------------------------
@@ -147,6 +155,23 @@ def tile_points(options: RenderOptions, width: int, height: int, rows: range, co
     return (corner[:, None, :] + off).reshape(-1, 2)
 
 
+def lens_samples(options: RenderOptions, pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
+    """(N, 2) points in [0, 1)^2 on a thin lens's aperture for samples `sample` of pixels `pixel` (flat, row-major
+    over the whole image): Owen-scrambled Sobol pairs of their own key, unrelated to the film position and the
+    path tracer's dimensions, so a pixel's aperture samples are stratified and the same in every tile."""
+    keys = key(options.seed, np.asarray(pixel), np.full(len(pixel), LENS_KEY))
+    return sobol_pair(keys, np.asarray(sample), 0)
+
+
+def camera_rays(camera, points: np.ndarray, width: int, height: int, options: RenderOptions, pixel: np.ndarray,
+                sample: np.ndarray):
+    """The camera's rays (origins, directions, valid) through film points of samples `sample` of pixels `pixel`,
+    with aperture samples for a thin lens (PerspectiveCamera.aperture_radius > 0)."""
+    if getattr(camera, "aperture_radius", 0.0) > 0:
+        return camera.generate_rays(points, width, height, lens_samples(options, pixel, sample))
+    return camera.generate_rays(points, width, height)
+
+
 def sample_points(width: int, height: int, options: RenderOptions) -> tuple[np.ndarray, np.ndarray]:
     """Film points (N,2) of every sample of the image and the flat pixel index (row-major, row 0 on top) each
     belongs to. Samples are grouped by pixel, pixels in row-major order, options.samples per pixel; the render's
@@ -157,7 +182,32 @@ def sample_points(width: int, height: int, options: RenderOptions) -> tuple[np.n
 
 # --- filtering ---------------------------------------------------------------------------------------------------
 @nb.njit(cache=True, inline="always")
+def _weight1(kind: int, r: float, x: float) -> float:
+    """One axis of Mitsuba's separable filters (module docstring)."""
+    x = abs(x)
+    if kind == MITCHELL:
+        x = 2.0 * x / r
+        if x >= 2.0:
+            return 0.0
+        x2 = x * x
+        if x < 1.0:
+            return ((12 - 9 * _B - 6 * _C) * x2 * x + (-18 + 12 * _B + 6 * _C) * x2 + (6 - 2 * _B)) / 6.0
+        return ((-_B - 6 * _C) * x2 * x + (6 * _B + 30 * _C) * x2 + (-12 * _B - 48 * _C) * x + (8 * _B + 24 * _C)) / 6.0
+    if kind == LANCZOS:
+        if x >= r:
+            return 0.0
+        if x < 1e-8:
+            return 1.0
+        a = math.pi * x
+        return r * math.sin(a) * math.sin(a / r) / (a * a)
+    a = -1.0 / (2.0 * r * r)  # MITSUBA_GAUSSIAN
+    return max(0.0, math.exp(a * x * x) - math.exp(a * 16.0 * r * r))
+
+
+@nb.njit(cache=True, inline="always")
 def _weight(kind: int, r: float, dx: float, dy: float) -> float:
+    if kind >= MITCHELL:
+        return _weight1(kind, r, dx) * _weight1(kind, r, dy)
     if kind == BOX:  # edges inclusive, up to float rounding (the course's k/zoom - 4.5 lands on r = 1.7 in float)
         edge = r * (1.0 + 1e-6)
         return 1.0 if abs(dx) <= edge and abs(dy) <= edge else 0.0
@@ -186,10 +236,9 @@ def filter_weight(options: RenderOptions, dx, dy) -> np.ndarray:
 
 def support_radius(options: RenderOptions) -> int:
     """Integer radius in pixels of the neighbourhood whose samples can weigh on a pixel: the filter is zero beyond
-    `extent` from the centre (r for box and tent, 2 sigma for the gaussian), and a neighbour k pixels away has
+    `extent` from the centre (options.filter_reach), and a neighbour k pixels away has
     samples from k - 0.5 pixels on, so k <= ceil(extent - 0.5)."""
-    extent = options.filter_radius * (2.0 if options.filter == "gaussian" else 1.0)
-    return max(0, math.ceil(extent - 0.5 - 1e-9))
+    return max(0, math.ceil(options.filter_reach() - 0.5 - 1e-9))
 
 
 @nb.njit(cache=True, parallel=True)

@@ -49,8 +49,9 @@ class PathTracer:
         flat = ctx.compiled.flat  # instances flattened: hit_surfaces reads every triangle from one array
         self._surfaces = tuple(np.ascontiguousarray(a) for a in (
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
-            flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
-            flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3)),
+            flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix, flat.sphere_material,
+            flat.plane_normal, flat.plane_material,
+            _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3)),
             np.asarray(flat.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
         # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators,

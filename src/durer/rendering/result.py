@@ -37,6 +37,18 @@ class RenderResult:
     denoise_seconds: float = 0.0
 
     @property
+    def alpha(self) -> np.ndarray | None:
+        """Coverage (H,W), with options.alpha: the filter-weighted share of samples whose camera ray hit something."""
+        a = self.aovs.get("alpha")
+        return None if a is None else a[..., 0]
+
+    @property
+    def rgba(self) -> np.ndarray:
+        """Colour and coverage (H,W,4) (alpha 1 without options.alpha), as Mitsuba's rgba films."""
+        alpha = self.alpha if self.alpha is not None else np.ones(self.color.shape[:2], np.float32)
+        return np.concatenate([self.color, alpha[..., None]], axis=-1)
+
+    @property
     def shading_normals(self) -> np.ndarray | None:
         """The filtered shading normal of the first non-specular hit (H,W,3), with the denoiser's features."""
         return self.aovs.get("shading_normal")

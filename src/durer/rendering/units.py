@@ -126,11 +126,17 @@ class Job:
 
     @property
     def tile(self) -> Tile:
-        """The whole image as one tile."""
-        return Tile(0, 0, self.height, self.width)
+        """What is rendered, as one tile: the whole image, or its crop window (options.crop). The window's pixels
+        keep their place in the image (their samples, rays and filter halo), so they are the whole image's."""
+        if self.options.crop is None:
+            return Tile(0, 0, self.height, self.width)
+        x, y, w, h = (int(v) for v in self.options.crop)
+        return Tile(y, x, h, w)
 
     def tiles(self) -> list[Tile]:
-        return tiles(self.width, self.height, self.tile_side)
+        window = self.tile
+        return [Tile(t.row + window.row, t.col + window.col, t.rows, t.cols)
+                for t in tiles(window.cols, window.rows, self.tile_side)]
 
     def units(self) -> list[tuple[Tile, range]]:
         """The canonical decomposition: passes of pass_samples samples, each over every tile (row-major)."""
@@ -278,12 +284,14 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     r, c = np.divmod(np.arange(halo.pixels), halo.cols)
     pixel = np.repeat((r + halo.row) * width + c + halo.col, m)
     sample = np.tile(np.arange(samples.start, samples.stop), halo.pixels)
-    origins, directions, valid = job.camera.generate_rays(points, width, height)
+    origins, directions, valid = film.camera_rays(job.camera, points, width, height, options, pixel, sample)
     n = len(points)
     color = np.empty((n, 3))
     color[:] = job.ctx.scene.background_color  # film points without a ray (outside a fisheye's circle)
     t, normal = np.full(n, np.inf), np.zeros((n, 3))
     aovs: dict[str, np.ndarray] = {}
+    if options.alpha:  # coverage: 1 where the camera ray hit something, filtered like the colour
+        aovs["alpha"] = np.zeros((n, 1))
     idx = np.flatnonzero(valid)
     every = len(idx) == n
     step = _batch(job.integrator, len(idx), halo)
@@ -300,6 +308,8 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
             if f.name not in aovs:
                 aovs[f.name] = np.zeros((n, value.shape[1]))
             aovs[f.name][sel] = value
+    if options.alpha:
+        aovs["alpha"][:, 0] = np.isfinite(t)
     channels = (("color", 3),) + tuple((name, a.shape[1]) for name, a in aovs.items())
     acc = Accumulators.zeros(tile, channels)
     values = np.concatenate([color, *aovs.values()], axis=1) if aovs else color

@@ -8,11 +8,11 @@ from .cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, Perspect
 from .graph import Group, Scene, Transform
 from .lights import DirectionalLight, PointLight
 from .materials import Material, PhongMaterial
-from .shapes import Plane, Sphere, Triangle, TriangleMesh
+from .shapes import Cylinder, Disk, Plane, Sphere, Triangle, TriangleMesh
 from .textures import Checkerboard, Marble, Noise, Wood
 
 __all__ = [
-    "Checkerboard", "DirectionalLight", "FisheyeCamera", "Group", "Marble", "Material", "Noise", "OrthographicCamera",
-    "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight", "Scene", "Sphere", "Transform",
-    "Triangle", "TriangleMesh", "Wood",
+    "Checkerboard", "Cylinder", "DirectionalLight", "Disk", "FisheyeCamera", "Group", "Marble", "Material", "Noise",
+    "OrthographicCamera", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial", "Plane", "PointLight", "Scene",
+    "Sphere", "Transform", "Triangle", "TriangleMesh", "Wood",
 ]

@@ -39,6 +39,18 @@ def orthonormal_basis(direction, up) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return d, u, h
 
 
+def concentric_disk(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points (..., 2) of [0, 1)^2 mapped onto the unit disk by Shirley and Chiu's concentric map (Mitsuba's
+    square_to_uniform_disk_concentric): uniform by area, (x, y)."""
+    a, b = 2.0 * u[..., 0] - 1.0, 2.0 * u[..., 1] - 1.0
+    first = np.abs(a) > np.abs(b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(first, a, b)
+        phi = np.where(first, np.pi / 4 * b / a, np.pi / 2 - np.pi / 4 * a / b)
+    phi = np.where((a == 0) & (b == 0), 0.0, phi)
+    return r * np.cos(phi), r * np.sin(phi)
+
+
 def _finite_point(p) -> np.ndarray:
     a = np.asarray(p, dtype=np.float64).reshape(3)
     if not np.isfinite(a).all():
@@ -112,12 +124,18 @@ class PerspectiveCamera:
     """A pinhole at `center`; `angle` is the full field of view in degrees across the longer image side.
 
     Rays go through a flat virtual screen (not interpolated angles), directions are unit length, t_min = 0.
+    With `aperture_radius` > 0 it is Mitsuba's thin lens: rays leave a disk of that radius around the centre
+    (perpendicular to the view direction) towards the point the pinhole ray meets on the plane `focus_distance`
+    ahead (depth of field); `lens` samples in [0, 1)^2 pick the point of the disk (Shirley's concentric map, as
+    Mitsuba), and without them every ray leaves the centre.
     """
 
     center: np.ndarray
     direction: np.ndarray
     up: np.ndarray
     angle: float
+    aperture_radius: float = 0.0
+    focus_distance: float = 1.0
 
     t_min = 0.0
 
@@ -126,14 +144,26 @@ class PerspectiveCamera:
         self.angle = float(self.angle)
         if not 0 < self.angle < 180:
             raise ValueError(f"camera angle must be between 0 and 180 degrees, got {self.angle}")
+        self.aperture_radius, self.focus_distance = float(self.aperture_radius), float(self.focus_distance)
+        if not (self.aperture_radius >= 0 and np.isfinite(self.aperture_radius)):
+            raise ValueError(f"aperture radius must be finite and not negative, got {self.aperture_radius}")
+        if not (self.focus_distance > 0 and np.isfinite(self.focus_distance)):
+            raise ValueError(f"focus distance must be positive, got {self.focus_distance}")
         self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
 
-    def generate_rays(self, points: np.ndarray, width: int, height: int):
+    def generate_rays(self, points: np.ndarray, width: int, height: int, lens: np.ndarray | None = None):
         sx, sy = _film_offsets(points, width, height)
         extent = 2.0 * np.tan(np.radians(self.angle) / 2.0)
         d = self.direction + (sx * extent)[..., None] * self.horizontal + (sy * extent)[..., None] * self.up
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
         origins = np.broadcast_to(self.center, d.shape).copy()
+        if self.aperture_radius > 0 and lens is not None:
+            ax, ay = concentric_disk(np.asarray(lens, dtype=np.float64).reshape(d.shape[:-1] + (2,)))
+            focus = origins + d * (self.focus_distance / (d @ self.direction))[..., None]
+            origins += (self.aperture_radius * ax)[..., None] * self.horizontal
+            origins += (self.aperture_radius * ay)[..., None] * self.up
+            d = focus - origins
+            d /= np.linalg.norm(d, axis=-1, keepdims=True)
         return origins, d, np.ones(sx.shape, dtype=bool)
 
     def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:

@@ -8,7 +8,7 @@ import numpy as np
 
 from .lights import DirectionalLight, PointLight
 from .materials import PhongMaterial
-from .shapes import Plane, Sphere, Triangle, TriangleMesh
+from .shapes import Cylinder, Disk, Plane, Sphere, Triangle, TriangleMesh
 
 
 @dataclass
@@ -36,7 +36,7 @@ class Transform:
             raise ValueError("transform matrix is singular")
 
 
-Object3D = Group | Transform | Sphere | Plane | Triangle | TriangleMesh
+Object3D = Group | Transform | Sphere | Disk | Cylinder | Plane | Triangle | TriangleMesh
 Light = DirectionalLight | PointLight
 
 

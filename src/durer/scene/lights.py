@@ -60,8 +60,10 @@ class SpotLight:
     """A point light at `position` shining along `direction` into a cone (glTF KHR_lights_punctual's spot).
 
     Full strength inside `inner_angle`, none outside `outer_angle` (half-angles from the axis, in degrees), and
-    glTF's smooth falloff between: clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)^2. Distance
-    attenuation as PointLight's 1 / (a + b*d + c*d^2) (default: constant).
+    glTF's smooth falloff between: clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)^2, or with
+    `falloff="angle"` Mitsuba's spot (beam_width = inner, cutoff_angle = outer): (outer - a) / (outer - inner),
+    linear in the angle a (measured on Mitsuba 3.9's spot). Distance attenuation as PointLight's
+    1 / (a + b*d + c*d^2) (default: constant).
     """
 
     position: np.ndarray
@@ -70,8 +72,14 @@ class SpotLight:
     inner_angle: float = 0.0
     outer_angle: float = 45.0
     attenuation: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    falloff: str = "gltf"
+    # the light's own x and y axes (Mitsuba's to_world), which orient a projected texture (texture_uv)
+    right: np.ndarray | None = None
+    up: np.ndarray | None = None
 
     def __post_init__(self):
+        if self.falloff not in ("gltf", "angle"):
+            raise ValueError(f"spot light falloff is 'gltf' or 'angle', got {self.falloff!r}")
         point = PointLight(self.position, self.color, self.attenuation)  # the same checks as a point light
         self.position, self.color, self.attenuation = point.position, point.color, point.attenuation
         self.direction = DirectionalLight(self.direction).direction
@@ -80,9 +88,24 @@ class SpotLight:
             raise ValueError(f"spot light cone angles need 0 <= inner < outer <= 90 degrees, got "
                              f"{self.inner_angle:g} and {self.outer_angle:g}")
 
+    def texture_uv(self, points: np.ndarray) -> np.ndarray:
+        """(N, 2) texture coordinates of world `points` in the image the spot projects, as Mitsuba's spot: with d
+        the unit direction from the light in its own frame (right, up, direction), (1/2 + d.x / (2 d.z tan(outer)),
+        1/2 + d.y / (2 d.z tan(outer))): the cone of outer_angle fills [0, 1]^2's inscribed disk."""
+        if self.right is None or self.up is None:
+            raise ValueError("a spot light's texture needs its frame (right and up axes)")
+        v = np.asarray(points, dtype=np.float64) - self.position
+        x, y, z = v @ np.asarray(self.right), v @ np.asarray(self.up), v @ self.direction
+        scale = 0.5 / (z * np.tan(np.radians(self.outer_angle)))
+        return np.stack([0.5 + x * scale, 0.5 + y * scale], axis=-1)
+
     def cone_factor(self, to_light: np.ndarray) -> np.ndarray:
         """(N,) share of the light reaching points whose unit directions towards the light are `to_light`."""
         cos_a = -(to_light @ self.direction)
+        if self.falloff == "angle":
+            outer, inner = np.radians(self.outer_angle), np.radians(self.inner_angle)
+            ramp = (outer - np.arccos(np.clip(cos_a, -1.0, 1.0))) / max(outer - inner, 1e-12)
+            return np.where(cos_a > np.cos(outer), np.where(cos_a >= np.cos(inner), 1.0, ramp), 0.0)
         cos_outer, cos_inner = np.cos(np.radians(self.outer_angle)), np.cos(np.radians(self.inner_angle))
         return np.clip((cos_a - cos_outer) / max(cos_inner - cos_outer, 1e-3), 0.0, 1.0) ** 2
 

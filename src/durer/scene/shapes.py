@@ -1,4 +1,5 @@
-"""Shape descriptions: Sphere, Plane, Triangle, TriangleMesh. Plain data; the maths lives in kernels/."""
+"""Shape descriptions: Sphere, Disk, Cylinder, Plane, Triangle, TriangleMesh. Plain data; the maths lives in
+kernels/."""
 
 from __future__ import annotations
 
@@ -27,6 +28,48 @@ class Sphere:
         self.radius = float(self.radius)
         if not (self.radius > 0 and np.isfinite(self.radius)):
             raise ValueError(f"sphere radius must be positive, got {self.radius}")
+
+
+@dataclass
+class Disk:
+    """Mitsuba's disk: the unit disk x^2 + y^2 <= 1 of the plane z = 0, normal +z; a Transform places and sizes
+    it. Texture coordinates (r, phi / 2 pi), as Mitsuba's."""
+
+    material: int = 0
+
+
+@dataclass
+class Cylinder:
+    """Mitsuba's cylinder: the open tube (no caps) of `radius` around the segment p0 -> p1, normals outward.
+    Texture coordinates (phi / 2 pi, fraction of the way from p0 to p1), as Mitsuba's."""
+
+    p0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    p1: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    radius: float = 1.0
+    material: int = 0
+
+    def __post_init__(self):
+        self.p0, self.p1 = _vec3(self.p0, "cylinder p0"), _vec3(self.p1, "cylinder p1")
+        self.radius = float(self.radius)
+        if not (self.radius > 0 and np.isfinite(self.radius)):
+            raise ValueError(f"cylinder radius must be positive, got {self.radius}")
+        if not np.linalg.norm(self.p1 - self.p0) > 0:
+            raise ValueError("cylinder p0 and p1 must differ")
+
+    def object_matrix(self) -> np.ndarray:
+        """The 4x4 matrix from the unit cylinder (radius 1, z from 0 to 1) to this one, with Mitsuba's frame
+        about the axis (coordinate_system of the axis direction), so that texture coordinates agree."""
+        axis = self.p1 - self.p0
+        length = float(np.linalg.norm(axis))
+        z = axis / length
+        sign = 1.0 if z[2] >= 0 else -1.0  # Duff et al.'s orthonormal basis, as Mitsuba's coordinate_system
+        a = -1.0 / (sign + z[2])
+        b = z[0] * z[1] * a
+        x = np.array([1.0 + sign * z[0] * z[0] * a, sign * b, -sign * z[0]])
+        y = np.array([b, sign + z[1] * z[1] * a, -z[1]])
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x * self.radius, y * self.radius, axis, self.p0
+        return m
 
 
 @dataclass

@@ -8,12 +8,12 @@ from .cameras import FisheyeCamera, OrthographicCamera, PanoramaCamera, Perspect
 from .graph import Group, Scene, Transform
 from .lights import DirectionalLight, PointLight, SpotLight
 from .materials import PhongMaterial
-from .shapes import Plane, Sphere, Triangle, TriangleMesh
+from .shapes import Cylinder, Disk, Plane, Sphere, Triangle, TriangleMesh
 from .textures import Checkerboard, Marble, Noise, Wood
 
 CAMERAS = (OrthographicCamera, PerspectiveCamera, FisheyeCamera, PanoramaCamera)
 LIGHTS = (DirectionalLight, PointLight, SpotLight)
-SHAPES = (Sphere, Plane, Triangle, TriangleMesh)
+SHAPES = (Sphere, Disk, Cylinder, Plane, Triangle, TriangleMesh)
 TEXTURES = (Checkerboard, Noise, Marble, Wood)
 PHYSICAL = (Surface, *BSDF.__args__)  # the path tracer's materials (scene/bsdfs.py)
 # Groups and Transforms inside each other, at most: the compiler walks the tree recursively (accel/compile.py), and

@@ -10,18 +10,22 @@ import math
 
 import numba as nb
 
-from ..common import JIT
+from ..common import CYLINDER_CODE, JIT
 from .envmap import envmap_sample
 from .warps import frame3, to_world3, uniform_cone3, uniform_cone_pdf, uniform_sphere3
 
-AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP = range(6)
-# parameter columns: spheres centre x y z, radius, flip; points position x y z, attenuation a b c; directional
-# lights direction x y z; meshes area, first triangle, triangle count, first cdf entry
+AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP, AREA_SHAPE, SPOT = range(8)
+# parameter columns: spheres centre x y z, radius, flip; points position x y z, attenuation a b c; spots those, the
+# axis x y z, then cos(outer), cos(inner), the angles outer, inner (radians) and the falloff (0 glTF's, 1 Mitsuba's
+# linear in the angle); directional lights direction x y z; meshes area, first triangle, triangle count, first cdf
+# entry; disks and cylinders (AREA_SHAPE) their object-to-world and world-to-object 3x4 rows, shape code, flip
 CENTER, RADIUS, SPHERE_FLIP = 0, 3, 4
 POSITION, ATTENUATION = 0, 3
+AXIS, COS_OUTER, COS_INNER, OUTER, INNER, FALLOFF = 6, 9, 10, 11, 12, 13
 DIRECTION = 0
 AREA, FIRST_TRI, TRI_COUNT, FIRST_CDF = 0, 1, 2, 3
-PARAMS = 6
+O2W, W2O, SHAPE_CODE, SHAPE_FLIP = 0, 12, 24, 25
+PARAMS = 26
 INSIDE_SLACK = 1.0 + 1e-9  # a point this close to a sphere's surface counts as inside (sampled by area)
 
 
@@ -49,15 +53,73 @@ def _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1):
 
 
 @nb.njit(**JIT, inline="always")
+def spot_falloff(F, e, cos_a):
+    """The share of a spot light's intensity sent at angle a from its axis (scene/lights.SpotLight.cone_factor)."""
+    if cos_a <= F[e, COS_OUTER]:
+        return 0.0
+    if F[e, FALLOFF] != 0:  # Mitsuba's spot
+        if cos_a >= F[e, COS_INNER]:
+            return 1.0
+        return (F[e, OUTER] - math.acos(min(cos_a, 1.0))) / max(F[e, OUTER] - F[e, INNER], 1e-12)
+    x = min((cos_a - F[e, COS_OUTER]) / max(F[e, COS_INNER] - F[e, COS_OUTER], 1e-3), 1.0)
+    return x * x
+
+
+@nb.njit(**JIT, inline="always")
+def _shape_jacobian(F, e, qx, qy):
+    """Area of the world surface per unit of (u0, u1) at object point q of a disk or cylinder emitter: the disk
+    sampled as r = sqrt(u0), phi = 2 pi u1 (area pi |Mx x My| spread evenly), the cylinder as z = u0, phi = 2 pi u1
+    (2 pi |dp/dphi x Mz|, exact under any affine to_world)."""
+    mx = (F[e, O2W], F[e, O2W + 4], F[e, O2W + 8])
+    my = (F[e, O2W + 1], F[e, O2W + 5], F[e, O2W + 9])
+    mz = (F[e, O2W + 2], F[e, O2W + 6], F[e, O2W + 10])
+    if F[e, SHAPE_CODE] == CYLINDER_CODE:
+        a = (qx * my[0] - qy * mx[0], qx * my[1] - qy * mx[1], qx * my[2] - qy * mx[2])  # dp/dphi at |q| = 1
+        b = mz
+        scale = 2.0 * math.pi
+    else:
+        a, b, scale = mx, my, math.pi
+    cx, cy, cz = a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+    return scale * math.sqrt(cx * cx + cy * cy + cz * cz)
+
+
+@nb.njit(**JIT, inline="always")
+def _shape_point(F, e, u0, u1):
+    """A point on disk or cylinder emitter e: (world point, unit world normal (flipped as the surface emits),
+    area pdf)."""
+    phi = 2.0 * math.pi * u1
+    c, s = math.cos(phi), math.sin(phi)
+    if F[e, SHAPE_CODE] == CYLINDER_CODE:
+        qx, qy, qz, nx, ny, nz = c, s, u0, c, s, 0.0
+    else:
+        r = math.sqrt(u0)
+        qx, qy, qz, nx, ny, nz = r * c, r * s, 0.0, 0.0, 0.0, 1.0
+    y = (F[e, O2W] * qx + F[e, O2W + 1] * qy + F[e, O2W + 2] * qz + F[e, O2W + 3],
+         F[e, O2W + 4] * qx + F[e, O2W + 5] * qy + F[e, O2W + 6] * qz + F[e, O2W + 7],
+         F[e, O2W + 8] * qx + F[e, O2W + 9] * qy + F[e, O2W + 10] * qz + F[e, O2W + 11])
+    # normals by the inverse transpose: the world-to-object rows' columns
+    wx = F[e, W2O] * nx + F[e, W2O + 4] * ny + F[e, W2O + 8] * nz
+    wy = F[e, W2O + 1] * nx + F[e, W2O + 5] * ny + F[e, W2O + 9] * nz
+    wz = F[e, W2O + 2] * nx + F[e, W2O + 6] * ny + F[e, W2O + 10] * nz
+    ln = math.sqrt(wx * wx + wy * wy + wz * wz)
+    sign = (-1.0 if F[e, SHAPE_FLIP] != 0 else 1.0) / max(ln, 1e-300)
+    return y, (wx * sign, wy * sign, wz * sign), 1.0 / max(_shape_jacobian(F, e, qx, qy), 1e-300)
+
+
+@nb.njit(**JIT, inline="always")
 def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, e, px, py, pz, u0, u1):
     """Sample emitter e from point p: (unit direction, distance (inf at infinity), radiance / pdf (0 where the
     sample is invalid), solid-angle pdf (inf for delta lights)). env: the environment map's tables."""
     k = K[e]
-    if k == POINT:
+    if k == POINT or k == SPOT:
         tx, ty, tz = F[e, POSITION] - px, F[e, POSITION + 1] - py, F[e, POSITION + 2] - pz
         dist = math.sqrt(tx * tx + ty * ty + tz * tz)
         att = F[e, ATTENUATION] + F[e, ATTENUATION + 1] * dist + F[e, ATTENUATION + 2] * dist * dist
-        return (tx / dist, ty / dist, tz / dist), dist, (R[e, 0] / att, R[e, 1] / att, R[e, 2] / att), math.inf
+        d = (tx / dist, ty / dist, tz / dist)
+        f = 1.0
+        if k == SPOT:
+            f = spot_falloff(F, e, -(d[0] * F[e, AXIS] + d[1] * F[e, AXIS + 1] + d[2] * F[e, AXIS + 2]))
+        return d, dist, (R[e, 0] * f / att, R[e, 1] * f / att, R[e, 2] * f / att), math.inf
     if k == DIRECTIONAL:
         return ((-F[e, DIRECTION], -F[e, DIRECTION + 1], -F[e, DIRECTION + 2]), math.inf,
                 (R[e, 0], R[e, 1], R[e, 2]), math.inf)
@@ -71,6 +133,8 @@ def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, e, px, py, pz, u0, u1):
     if k == AREA_MESH:
         y, nrm = _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1)
         area_pdf = 1.0 / F[e, AREA]
+    elif k == AREA_SHAPE:
+        y, nrm, area_pdf = _shape_point(F, e, u0, u1)
     else:  # AREA_SPHERE: by the solid angle of its cone from outside, uniformly by area from inside
         cx, cy, cz, r = F[e, CENTER], F[e, CENTER + 1], F[e, CENTER + 2], F[e, RADIUS]
         tx, ty, tz = cx - px, cy - py, cz - pz
@@ -113,13 +177,17 @@ def emitter_pdf(K, F, e, px, py, pz, yx, yy, yz, nx, ny, nz):
     k = K[e]
     if k == ENVIRONMENT:
         return 1.0 / (4.0 * math.pi)
-    if k != AREA_MESH and k != AREA_SPHERE:
+    if k != AREA_MESH and k != AREA_SPHERE and k != AREA_SHAPE:
         return 0.0
     tx, ty, tz = yx - px, yy - py, yz - pz
     dist2 = tx * tx + ty * ty + tz * tz
     cos_l = abs(tx * nx + ty * ny + tz * nz) / math.sqrt(max(dist2, 1e-300))
     if k == AREA_MESH:
         return dist2 / max(F[e, AREA] * cos_l, 1e-300)
+    if k == AREA_SHAPE:
+        qx = F[e, W2O] * yx + F[e, W2O + 1] * yy + F[e, W2O + 2] * yz + F[e, W2O + 3]
+        qy = F[e, W2O + 4] * yx + F[e, W2O + 5] * yy + F[e, W2O + 6] * yz + F[e, W2O + 7]
+        return dist2 / max(_shape_jacobian(F, e, qx, qy) * cos_l, 1e-300)
     r = F[e, RADIUS]
     cx, cy, cz = F[e, CENTER] - px, F[e, CENTER + 1] - py, F[e, CENTER + 2] - pz
     dc = math.sqrt(cx * cx + cy * cy + cz * cz)

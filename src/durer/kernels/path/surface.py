@@ -11,12 +11,12 @@ import math
 
 import numba as nb
 
-from ..common import JIT, PLANE, SPHERE, TRIANGLE
+from ..common import CYLINDER_CODE, DISK_CODE, JIT, PLANE, SPHERE, TRIANGLE
 
 
 @nb.njit(**JIT, inline="always")
-def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat,
-               tri_n):
+def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, radius, normal_matrix, sph_mat, plane_normal,
+               plane_mat, tri_n):
     """The unit geometric and shading normals and the material slot at point p of a hit of kind k on primitive j:
     (gx, gy, gz, sx, sy, sz, slot), zeros and -1 on a miss. tri_n (F, 3, 3): unit world vertex normals of each
     triangle's corners (zero rows: the triangle is flat; fewer rows than triangles, e.g. none: every triangle is
@@ -49,6 +49,10 @@ def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_
         qx = w2o[j, 0, 0] * px + w2o[j, 0, 1] * py + w2o[j, 0, 2] * pz + w2o[j, 0, 3] - center[j, 0]
         qy = w2o[j, 1, 0] * px + w2o[j, 1, 1] * py + w2o[j, 1, 2] * pz + w2o[j, 1, 3] - center[j, 1]
         qz = w2o[j, 2, 0] * px + w2o[j, 2, 1] * py + w2o[j, 2, 2] * pz + w2o[j, 2, 3] - center[j, 2]
+        if radius[j] == DISK_CODE:  # analytic shapes (kernels/common.py): the disk's +z, the cylinder's radial
+            qx, qy, qz = 0.0, 0.0, 1.0
+        elif radius[j] == CYLINDER_CODE:
+            qz = 0.0
         m = normal_matrix
         nx = m[j, 0, 0] * qx + m[j, 0, 1] * qy + m[j, 0, 2] * qz
         ny = m[j, 1, 0] * qx + m[j, 1, 1] * qy + m[j, 1, 2] * qz
@@ -64,10 +68,29 @@ def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, normal_matrix, sph_
 
 
 @nb.njit(**JIT)
-def uv_at(px, py, pz, k, j, tris, tri_uv):
+def uv_at(px, py, pz, k, j, tris, tri_uv, w2o, center, radius):
     """Texture coordinates and their derivatives at point p of a hit of kind k on primitive j: (u, v, dp/du (3),
-    dp/dv (3)), as Mitsuba's meshes compute them (dp/du, dp/dv from the triangle's edges and UV differences; zeros
-    where the mesh has no UVs or they are degenerate, and for spheres and planes, which have none in durer)."""
+    dp/dv (3)), as Mitsuba computes them. Meshes: barycentric UVs, dp/du and dp/dv from the triangle's edges and UV
+    differences (zeros where the mesh has no UVs or they are degenerate). Analytic shapes (kind SPHERE, the shape
+    code in `radius`): Mitsuba's parametrisation of the object-space point, spheres (phi / 2 pi, theta / pi), disks
+    (r, phi / 2 pi), cylinders (phi / 2 pi, z), phi = atan2(y, x) in [0, 2 pi), with zero derivatives. Planes: zeros."""
+    if k == SPHERE:
+        qx = w2o[j, 0, 0] * px + w2o[j, 0, 1] * py + w2o[j, 0, 2] * pz + w2o[j, 0, 3]
+        qy = w2o[j, 1, 0] * px + w2o[j, 1, 1] * py + w2o[j, 1, 2] * pz + w2o[j, 1, 3]
+        qz = w2o[j, 2, 0] * px + w2o[j, 2, 1] * py + w2o[j, 2, 2] * pz + w2o[j, 2, 3]
+        code = radius[j]
+        if code > 0:
+            qx, qy, qz = qx - center[j, 0], qy - center[j, 1], qz - center[j, 2]
+        phi = math.atan2(qy, qx)
+        if phi < 0:
+            phi += 2.0 * math.pi
+        phi /= 2.0 * math.pi
+        if code == DISK_CODE:
+            return math.sqrt(qx * qx + qy * qy), phi, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        if code == CYLINDER_CODE:
+            return phi, qz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        r = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-300)
+        return phi, math.acos(min(max(qz / r, -1.0), 1.0)) / math.pi, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     if k != TRIANGLE or j >= tri_uv.shape[0]:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     ax, ay, az = tris[j, 1, 0] - tris[j, 0, 0], tris[j, 1, 1] - tris[j, 0, 1], tris[j, 1, 2] - tris[j, 0, 2]
@@ -93,11 +116,12 @@ def uv_at(px, py, pz, k, j, tris, tri_uv):
 
 
 @nb.njit(**JIT)
-def hit_surfaces(o, d, t, kind, prim, tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat,
-                 tri_n, tri_uv, p, ng, ns, uvd, slot, i0, i1):
+def hit_surfaces(o, d, t, kind, prim, tris, tri_mat, w2o, center, radius, normal_matrix, sph_mat, plane_normal,
+                 plane_mat, tri_n, tri_uv, p, ng, ns, uvd, slot, i0, i1):
     """p = o + t d (o on a miss), ng and ns (geometric and shading normals) and slot (-1, normals 0 on a miss) of
     hits i0..i1. tris
-    (F, 3, 3) world triangles; spheres: world-to-object (S, 3, 4), object centre (S, 3), normal matrix (S, 3, 3);
+    (F, 3, 3) world triangles; analytic shapes: world-to-object (S, 3, 4), object centre (S, 3), radius or shape
+    code (S,), normal matrix (S, 3, 3);
     planes' unit normals; the *_mat arrays their material slots; tri_n the triangles' vertex normals (surface_at);
     uvd (n, 8) uv_at's texture coordinates and derivatives from the corners' tri_uv (F, 3, 2)."""
     for i in range(i0, i1):
@@ -105,10 +129,10 @@ def hit_surfaces(o, d, t, kind, prim, tris, tri_mat, w2o, center, normal_matrix,
         h = t[i] if k == TRIANGLE or k == SPHERE or k == PLANE else 0.0
         px, py, pz = o[i, 0] + h * d[i, 0], o[i, 1] + h * d[i, 1], o[i, 2] + h * d[i, 2]
         p[i, 0], p[i, 1], p[i, 2] = px, py, pz
-        gx, gy, gz, sx, sy, sz, slot[i] = surface_at(px, py, pz, k, prim[i], tris, tri_mat, w2o, center,
+        gx, gy, gz, sx, sy, sz, slot[i] = surface_at(px, py, pz, k, prim[i], tris, tri_mat, w2o, center, radius,
                                                      normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
         ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
         ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
-        r = uv_at(px, py, pz, k, prim[i], tris, tri_uv)
+        r = uv_at(px, py, pz, k, prim[i], tris, tri_uv, w2o, center, radius)
         for c in range(8):
             uvd[i, c] = r[c]

@@ -73,7 +73,7 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     """trace_bounce's work on path i (live[k])."""
     sample, keys, pkeys = path
     bounds, child, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o, pl_n, pl_off, _ = accel
-    tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n, tri_uv = surfaces
+    tris, tri_mat, w2o, center, radius, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n, tri_uv = surfaces
     first_t, first_n = first
     ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
     best, pprim = _planes(pl_n, pl_off, ox, oy, oz, dx, dy, dz, t_min, np.inf)
@@ -84,10 +84,10 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     hit = kind != MISS
     h = t if hit else 0.0
     gx, gy, gz, sx, sy, sz, s = surface_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_mat, w2o,
-                                           center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
+                                           center, radius, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
     surf = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if s >= 0 and bsdf[0][s, TEXTURED] != 0:
-        surf = uv_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_uv)
+        surf = uv_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_uv, w2o, center, radius)
     if scalars[0] == 0:
         first_t[i] = t
         first_n[i, 0], first_n[i, 1], first_n[i, 2] = gx, gy, gz
