@@ -319,6 +319,10 @@ class Builder:
                              "from one)" if t == "area" else f"emitter '{t}' cannot be attached to a shape")
         if t == "area":
             out = colour(self, node, p, "radiance", 1.0)
+            if isinstance(out, (Bitmap, Checker)):  # light sampling would need the UV of each sampled point
+                where = next(c for c in node.children if c.name == "radiance")
+                raise where.error("area: a textured radiance is not read yet (durer's area emitters "
+                                             "emit one colour)")
         elif t == "point":
             m = p.get("to_world", None, "matrix")
             pos = p.get("position", None, "vec")
