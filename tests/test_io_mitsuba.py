@@ -75,7 +75,9 @@ ERRORS = [
     ("<bsdf type=\"principled\" id=\"x\"/>", 3, "unsupported bsdf 'principled'"),
     ("<emitter type=\"photon\"/>", 3, "unsupported emitter 'photon'"),
     ("<emitter type=\"spot\">\n<texture type=\"bitmap\" name=\"texture\"/></emitter>", 4,
-     "spot: a projected texture is not read yet"),
+     "bitmap needs a filename"),
+    ("<shape type=\"sphere\"><emitter type=\"area\">\n<texture type=\"checkerboard\" name=\"radiance\"/></emitter>"
+     "</shape>", 4, "area: a textured radiance is not read yet"),
     ("<shape type=\"sdfgrid\"/>", 3, "sdfgrid needs a filename or a grid"),
     ("<integrator type=\"volpath\"/>", 3, "unsupported integrator 'volpath'"),
     ("<texture type=\"voronoi\"/>", 3, "unsupported texture 'voronoi'"),

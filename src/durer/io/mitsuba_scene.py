@@ -13,6 +13,7 @@ from ..scene import bsdfs as B
 from ..scene.cameras import OrthographicCamera, PerspectiveCamera
 from ..scene.graph import Group, Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight, SpotLight
+from ..scene.textures import Bitmap, Checker
 from .images import read_hdr
 from .mitsuba_bsdfs import build_bsdf, build_texture, colour
 from .mitsuba_shapes import build_shape
@@ -318,6 +319,10 @@ class Builder:
                              "from one)" if t == "area" else f"emitter '{t}' cannot be attached to a shape")
         if t == "area":
             out = colour(self, node, p, "radiance", 1.0)
+            if isinstance(out, (Bitmap, Checker)):  # light sampling would need the UV of each sampled point
+                where = next(c for c in node.children if c.name == "radiance")
+                raise where.error("area: a textured radiance is not read yet (durer's area emitters "
+                                             "emit one colour)")
         elif t == "point":
             m = p.get("to_world", None, "matrix")
             pos = p.get("position", None, "vec")
@@ -344,17 +349,16 @@ class Builder:
         else:
             raise node.error(f"unsupported emitter '{t}' (use area, point, spot, directional, constant or envmap)")
         p.done()
-        if node.children:
-            raise node.children[0].error(f"<{node.children[0].tag}> cannot appear in emitter '{t}'")
+        for child in node.children:
+            if not (t == "spot" and child.name == "texture"):  # the spot's projected texture
+                raise child.error(f"<{child.tag}> cannot appear in emitter '{t}'")
         return out
 
     def _spot(self, node, p) -> SpotLight:
         """Mitsuba's spot: at to_world's origin along its +z, intensity / d^2, full inside beam_width (default 3/4
-        of cutoff_angle, 20 degrees), falling off linearly in the angle to 0 at cutoff_angle."""
-        for child in node.children:
-            if child.tag == "texture":
-                raise child.error("spot: a projected texture is not read yet (durer renders the spot without one "
-                                  "only)")
+        of cutoff_angle, 20 degrees), falling off linearly in the angle to 0 at cutoff_angle; a `texture` projected
+        through the cone multiplies the intensity."""
+        texture = colour(self, node, p, "texture", None)
         m = p.get("to_world", np.eye(4), "matrix")
         cutoff = p.get("cutoff_angle", 20.0, float)
         beam = p.get("beam_width", 0.75 * cutoff, float)
@@ -363,8 +367,10 @@ class Builder:
             raise node.error(f"spot: durer needs 0 <= beam_width < cutoff_angle <= 90 degrees, got {beam:g} and "
                              f"{cutoff:g}")
         frame = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+        if texture is not None and not isinstance(texture, (Bitmap, Checker)):  # a constant: one more factor
+            intensity, texture = intensity * B.rgb(texture), None
         return call(node, SpotLight, m[:3, 3], m[:3, 2], intensity, beam, cutoff, (0.0, 0.0, 1.0), "angle",
-                    frame[:, 0], frame[:, 1])
+                    frame[:, 0], frame[:, 1], texture)
 
     def _envmap(self, node, p) -> EnvironmentMap:
         filename = p.get("filename", None, str)

@@ -150,7 +150,8 @@ class BSDFTable:
 
     def packed(self) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
         """The table as kernels/path/bsdf.py reads it: one float64 row per slot (its column layout), the rough
-        plastics' transmittance tables and the texture table (TI, TD); made once."""
+        plastics' transmittance tables and the texture table (TI, TD); made once (the texture table's arrays
+        anew when a texture was added since, as the emitters add spots' textures)."""
         if self._packed is None:
             n = len(self.kind)
             P = np.zeros((n, COLUMNS))
@@ -173,9 +174,8 @@ class BSDFTable:
             smooth[phong] = (self.c1[phong].max(1) > 0) | (self.c2[phong].max(1) > 0)
             smooth[blend] = smooth[self.child0[blend]] | smooth[self.child1[blend]]
             P[:, SMOOTH] = smooth
-            self._packed = (P, np.ascontiguousarray(self.transmittance.reshape(n, ROUGH_RES), dtype=np.float64),
-                            self.textures.packed())
-        return self._packed
+            self._packed = (P, np.ascontiguousarray(self.transmittance.reshape(n, ROUGH_RES), dtype=np.float64))
+        return self._packed[0], self._packed[1], self.textures.packed()
 
 
 def _row(m, textures: TextureTable) -> dict:

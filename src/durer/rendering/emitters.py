@@ -44,11 +44,15 @@ from ..kernels.path.emitters import (
     POINT,
     POSITION,
     RADIUS,
+    RIGHT,
     SHAPE_CODE,
     SHAPE_FLIP,
     SPHERE_FLIP,
     SPOT,
+    SPOT_TEX,
+    TAN_OUTER,
     TRI_COUNT,
+    UP,
     W2O,
     light_pdf_kernel,
     sample_lights_kernel,
@@ -57,6 +61,7 @@ from ..scene.graph import Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight, SpotLight
 from .bsdfs import BSDFTable
 from .envmap import EnvMapLight, no_envmap
+from .textures import TextureTable
 
 
 @dataclass
@@ -71,6 +76,7 @@ class Emitters:
     environment: np.ndarray | None = None                   # constant radiance of escaping rays (lighting)
     envmap: EnvMapLight | None = None                       # or an environment map
     environment_id: int = -1
+    textures: TextureTable = field(default_factory=TextureTable)  # the BSDFs' table, with spots' textures
     _packed: tuple | None = None
     _env: tuple | None = None
 
@@ -84,7 +90,7 @@ class Emitters:
 
     @classmethod
     def build(cls, scene: Scene, cs: CompiledScene, table: BSDFTable) -> Emitters:
-        e = cls()
+        e = cls(textures=table.textures)
         flat = cs.flat
         n_tri = len(flat.triangles)
         tri_slot = flat.triangle_material if n_tri else np.zeros(0, np.int32)
@@ -121,8 +127,9 @@ class Emitters:
             if isinstance(light, PointLight):
                 e._add(POINT, scale * light.color, dict(position=light.position, attenuation=light.attenuation))
             elif isinstance(light, SpotLight):
+                tex = -1 if light.texture is None else e.textures.add(light.texture)
                 e._add(SPOT, scale * light.color, dict(position=light.position, attenuation=light.attenuation,
-                                                       light=light))
+                                                       light=light, texture=tex))
             elif isinstance(light, DirectionalLight):
                 e._add(DIRECTIONAL, scale * light.color, dict(direction=light.direction))
         env = scene.environment
@@ -173,6 +180,9 @@ class Emitters:
                         F[e, AXIS:AXIS + 3] = s.direction
                         F[e, [COS_OUTER, COS_INNER, OUTER, INNER]] = np.cos(outer), np.cos(inner), outer, inner
                         F[e, FALLOFF] = s.falloff == "angle"
+                        F[e, SPOT_TEX], F[e, TAN_OUTER] = data["texture"], np.tan(outer)
+                        if s.right is not None and s.up is not None:
+                            F[e, RIGHT:RIGHT + 3], F[e, UP:UP + 3] = s.right, s.up
                 elif kind == DIRECTIONAL:
                     F[e, DIRECTION:DIRECTION + 3] = data["direction"]
             radiance = np.array(self.radiance).reshape(self.count, 3)
@@ -196,7 +206,8 @@ class Emitters:
         if self.count and n:
             u = np.ascontiguousarray(u, dtype=np.float64)
             sample_lights_kernel(np.ascontiguousarray(p, dtype=np.float64), np.asarray(u_pick, dtype=np.float64),
-                                 u, self.pack(), self.env_tables(), d, dist, w, pdf)
+                                 u, self.pack(), self.env_tables(), self.textures.packed(), d, dist,
+                                 w, pdf)
         return d, dist, w, pdf
 
     def pdf_hit(self, em: np.ndarray, p_prev: np.ndarray, y: np.ndarray, normal: np.ndarray) -> np.ndarray:

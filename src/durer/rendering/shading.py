@@ -14,6 +14,7 @@ import numpy as np
 
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
 from ..scene.materials import PhongMaterial
+from .textures import TextureTable
 
 
 @dataclass
@@ -58,10 +59,21 @@ def light_directions(light, points: np.ndarray) -> tuple[np.ndarray, np.ndarray,
         to_light = v / np.maximum(dist, 1e-300)[:, None]
         a, b, c = light.attenuation
         scale = 1.0 / np.maximum(a + b * dist + c * dist * dist, 1e-300)
+        color = np.broadcast_to(light.color, (n, 3))
         if isinstance(light, SpotLight):
             scale = scale * light.cone_factor(to_light)
-        return to_light, light.color[None, :] * scale[:, None], dist
+            if light.texture is not None:
+                lit = scale > 0  # texture_uv is finite only in front of the light
+                color = np.zeros((n, 3))
+                color[lit] = light.color * _texture_at(light.texture, light.texture_uv(points[lit]))
+        return to_light, color * scale[:, None], dist
     raise TypeError(f"not a light: {type(light).__name__}")
+
+
+def _texture_at(texture, uv: np.ndarray) -> np.ndarray:
+    """(N, 3) values of a Bitmap or Checker at texture coordinates uv (N, 2), by the path tracer's lookup."""
+    table = TextureTable()
+    return table.eval3(table.add(texture), uv)
 
 
 def phong(normals: np.ndarray, to_viewer: np.ndarray, to_light: np.ndarray, light_color: np.ndarray,

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .textures import Bitmap, Checker
 from .values import unit
 
 
@@ -63,7 +64,8 @@ class SpotLight:
     glTF's smooth falloff between: clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)^2, or with
     `falloff="angle"` Mitsuba's spot (beam_width = inner, cutoff_angle = outer): (outer - a) / (outer - inner),
     linear in the angle a (measured on Mitsuba 3.9's spot). Distance attenuation as PointLight's
-    1 / (a + b*d + c*d^2) (default: constant).
+    1 / (a + b*d + c*d^2) (default: constant). `texture` (Mitsuba's spot texture, a Bitmap or Checker)
+    multiplies the colour by its value at texture_uv, as Mitsuba's spot.
     """
 
     position: np.ndarray
@@ -76,8 +78,13 @@ class SpotLight:
     # the light's own x and y axes (Mitsuba's to_world), which orient a projected texture (texture_uv)
     right: np.ndarray | None = None
     up: np.ndarray | None = None
+    texture: Bitmap | Checker | None = None
 
     def __post_init__(self):
+        if self.texture is not None and not isinstance(self.texture, (Bitmap, Checker)):
+            raise ValueError(f"a spot light's texture is a Bitmap or Checker, got {type(self.texture).__name__}")
+        if self.texture is not None and (self.right is None or self.up is None):
+            raise ValueError("a spot light's texture needs its frame (right and up axes)")
         if self.falloff not in ("gltf", "angle"):
             raise ValueError(f"spot light falloff is 'gltf' or 'angle', got {self.falloff!r}")
         point = PointLight(self.position, self.color, self.attenuation)  # the same checks as a point light

@@ -8,8 +8,8 @@ Random numbers come from the counter-based stream (kernels/path/qmc.py) keyed by
 every path's numbers depend only on the path: the result is the same whatever the thread count or work split.
 
 Numba's on-disk cache of shade_bounce is keyed on this file alone, not on the BSDF and emitter kernels it inlines:
-after a change there (the BSDF table gained its BECKMANN column; the emitters their SPOT and AREA_SHAPE kinds),
-delete __pycache__ or touch this file."""
+after a change there (the BSDF table gained its BECKMANN column; the emitters their SPOT and AREA_SHAPE kinds and
+the spot's texture), delete __pycache__ or touch this file."""
 
 from __future__ import annotations
 
@@ -125,7 +125,7 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
     # --- next-event estimation (light sampling's share of MIS)
     if count and P[s, SMOOTH] != 0:
         u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 0))
-        ld, ldist, lw, lpdf = pick_sample(lights, env, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
+        ld, ldist, lw, lpdf = pick_sample(lights, env, tex, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
         wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
         f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
         if bent and (ld[0] * n0x + ld[1] * n0y + ld[2] * n0z) * wo[2] <= 0:  # a normal or bump map's side test

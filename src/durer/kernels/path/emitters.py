@@ -2,7 +2,8 @@
 pdf with which that sampling would have chosen a point found by a BSDF-sampled ray. Emitters are packed by
 rendering/emitters.py (which documents the models): per emitter a kind, a radiance and a row of parameters; the
 triangles of mesh emitters are concatenated with one area cdf per emitter. An environment map is sampled by
-kernels/path/envmap.py over its tables (`env`)."""
+kernels/path/envmap.py over its tables (`env`). A spot's projected texture is looked up in the path tracer's texture
+table (`tex` = (TI, TD), kernels/path/textures.py), as the BSDFs' are."""
 
 from __future__ import annotations
 
@@ -12,16 +13,20 @@ import numba as nb
 
 from ..common import CYLINDER_CODE, JIT
 from .envmap import envmap_sample
+from .textures import tex_eval3
 from .warps import frame3, to_world3, uniform_cone3, uniform_cone_pdf, uniform_sphere3
 
 AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP, AREA_SHAPE, SPOT = range(8)
 # parameter columns: spheres centre x y z, radius, flip; points position x y z, attenuation a b c; spots those, the
 # axis x y z, then cos(outer), cos(inner), the angles outer, inner (radians) and the falloff (0 glTF's, 1 Mitsuba's
-# linear in the angle); directional lights direction x y z; meshes area, first triangle, triangle count, first cdf
-# entry; disks and cylinders (AREA_SHAPE) their object-to-world and world-to-object 3x4 rows, shape code, flip
+# linear in the angle), its texture's index in the texture table (-1: none), its right and up axes x y z and
+# tan(outer) (Mitsuba's projection: scene/lights.SpotLight.texture_uv); directional lights direction x y z; meshes
+# area, first triangle, triangle count, first cdf entry; disks and cylinders (AREA_SHAPE) their object-to-world
+# and world-to-object 3x4 rows, shape code, flip
 CENTER, RADIUS, SPHERE_FLIP = 0, 3, 4
 POSITION, ATTENUATION = 0, 3
 AXIS, COS_OUTER, COS_INNER, OUTER, INNER, FALLOFF = 6, 9, 10, 11, 12, 13
+SPOT_TEX, RIGHT, UP, TAN_OUTER = 14, 15, 18, 21
 DIRECTION = 0
 AREA, FIRST_TRI, TRI_COUNT, FIRST_CDF = 0, 1, 2, 3
 O2W, W2O, SHAPE_CODE, SHAPE_FLIP = 0, 12, 24, 25
@@ -66,6 +71,19 @@ def spot_falloff(F, e, cos_a):
 
 
 @nb.njit(**JIT, inline="always")
+def spot_texture(F, TI, TD, e, dx, dy, dz, cos_a):
+    """Spot e's projected texture in the unit direction d from the light (cos_a = d . axis > 0): Mitsuba's
+    uv = 1/2 + (d.right, d.up) / (2 cos_a tan(outer)); (1, 1, 1) without a texture."""
+    t = int(F[e, SPOT_TEX])
+    if t < 0:
+        return 1.0, 1.0, 1.0
+    s = 0.5 / (cos_a * F[e, TAN_OUTER])
+    u = 0.5 + s * (dx * F[e, RIGHT] + dy * F[e, RIGHT + 1] + dz * F[e, RIGHT + 2])
+    v = 0.5 + s * (dx * F[e, UP] + dy * F[e, UP + 1] + dz * F[e, UP + 2])
+    return tex_eval3(TI, TD, t, u, v)
+
+
+@nb.njit(**JIT, inline="always")
 def _shape_jacobian(F, e, qx, qy):
     """Area of the world surface per unit of (u0, u1) at object point q of a disk or cylinder emitter: the disk
     sampled as r = sqrt(u0), phi = 2 pi u1 (area pi |Mx x My| spread evenly), the cylinder as z = u0, phi = 2 pi u1
@@ -107,19 +125,25 @@ def _shape_point(F, e, u0, u1):
 
 
 @nb.njit(**JIT, inline="always")
-def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, e, px, py, pz, u0, u1):
+def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, tex, e, px, py, pz, u0, u1):
     """Sample emitter e from point p: (unit direction, distance (inf at infinity), radiance / pdf (0 where the
-    sample is invalid), solid-angle pdf (inf for delta lights)). env: the environment map's tables."""
+    sample is invalid), solid-angle pdf (inf for delta lights)). env: the environment map's tables; tex: the
+    texture table (TI, TD)."""
     k = K[e]
     if k == POINT or k == SPOT:
         tx, ty, tz = F[e, POSITION] - px, F[e, POSITION + 1] - py, F[e, POSITION + 2] - pz
         dist = math.sqrt(tx * tx + ty * ty + tz * tz)
         att = F[e, ATTENUATION] + F[e, ATTENUATION + 1] * dist + F[e, ATTENUATION + 2] * dist * dist
         d = (tx / dist, ty / dist, tz / dist)
-        f = 1.0
+        f0 = f1 = f2 = 1.0
         if k == SPOT:
-            f = spot_falloff(F, e, -(d[0] * F[e, AXIS] + d[1] * F[e, AXIS + 1] + d[2] * F[e, AXIS + 2]))
-        return d, dist, (R[e, 0] * f / att, R[e, 1] * f / att, R[e, 2] * f / att), math.inf
+            cos_a = -(d[0] * F[e, AXIS] + d[1] * F[e, AXIS + 1] + d[2] * F[e, AXIS + 2])
+            f = spot_falloff(F, e, cos_a)
+            f0 = f1 = f2 = f
+            if f > 0:
+                r, g, b = spot_texture(F, tex[0], tex[1], e, -d[0], -d[1], -d[2], cos_a)
+                f0, f1, f2 = f * r, f * g, f * b
+        return d, dist, (R[e, 0] * f0 / att, R[e, 1] * f1 / att, R[e, 2] * f2 / att), math.inf
     if k == DIRECTIONAL:
         return ((-F[e, DIRECTION], -F[e, DIRECTION + 1], -F[e, DIRECTION + 2]), math.inf,
                 (R[e, 0], R[e, 1], R[e, 2]), math.inf)
@@ -197,24 +221,24 @@ def emitter_pdf(K, F, e, px, py, pz, yx, yy, yz, nx, ny, nz):
 
 
 @nb.njit(**JIT, inline="always")
-def pick_sample(lights, env, u_pick, u0, u1, px, py, pz):
+def pick_sample(lights, env, tex, u_pick, u0, u1, px, py, pz):
     """Next-event estimation from p: an emitter picked uniformly by u_pick, then sampled by (u0, u1); the weight
     and pdf include the pick (weight times the count, finite pdfs divided by it). lights and env as in
-    kernels/path/bounce.shade_bounce."""
+    kernels/path/bounce.shade_bounce, tex the texture table (TI, TD)."""
     K, R, F, tri_v, tri_n, tri_cdf, _, _ = lights
     count = K.shape[0]
     e = min(int(u_pick * count), count - 1)
-    d, dist, w, pdf = emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, e, px, py, pz, u0, u1)
+    d, dist, w, pdf = emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, tex, e, px, py, pz, u0, u1)
     if not math.isinf(pdf):
         pdf /= count
     return d, dist, (w[0] * count, w[1] * count, w[2] * count), pdf
 
 
 @nb.njit(**JIT)
-def sample_lights_kernel(p, u_pick, u, lights, env, d, dist, w, pdf):
+def sample_lights_kernel(p, u_pick, u, lights, env, tex, d, dist, w, pdf):
     """pick_sample for every point p[i] (NumPy arrays in, outputs written in place)."""
     for i in range(p.shape[0]):
-        di, dist[i], wi, pdf[i] = pick_sample(lights, env, u_pick[i], u[i, 0], u[i, 1], p[i, 0], p[i, 1], p[i, 2])
+        di, dist[i], wi, pdf[i] = pick_sample(lights, env, tex, u_pick[i], u[i, 0], u[i, 1], p[i, 0], p[i, 1], p[i, 2])
         d[i, 0], d[i, 1], d[i, 2] = di
         w[i, 0], w[i, 1], w[i, 2] = wi
 
