@@ -1,17 +1,16 @@
 """Real Mitsuba 3 scenes (../shared/scenes/mitsuba, issue 20): every scene durer reads loads unchanged, and small
-renders match Mitsuba 3's scalar_rgb render of the same file (image mean within 2%). Films are made small through
-the scene's own parameters or, where it has none, in an edited copy inside a mirror of the folder tree (symlinks),
-so that <path>, <include> and file names resolve as in the original."""
+renders match Mitsuba 3's scalar_rgb render of the same file: image mean within 2%, and error against a high-sample
+Mitsuba reference (tests/data/mitsuba, made by tools/mitsuba_references.py) at most 1.25x Mitsuba's at equal samples.
+Films are made small through the scene's own parameters or, where it has none, in an edited copy inside a mirror of
+the folder tree (symlinks, tools/mitsuba_references.small_scene), so that <path>, <include> and file names resolve as
+in the original. A scene added to RENDERS needs its reference: `python tools/mitsuba_references.py ID`."""
 
 from __future__ import annotations
-
-import os
-import re
-from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import MITSUBA_SCENES
+from mitsuba_references import load_reference, rmse, small_scene
 
 import durer
 from durer.io.mitsuba import load_mitsuba
@@ -79,39 +78,23 @@ def test_scene_loads(name):
     assert s.camera is not None and s.group.objects and s.render_defaults["width"] > 0
 
 
-def _mirror(dst: Path) -> Path:
-    """The scene tree as folders of symlinks under dst, so one file can be replaced by an edited copy."""
-    for folder, _, files in os.walk(MITSUBA_SCENES):
-        out = dst / Path(folder).relative_to(MITSUBA_SCENES)
-        out.mkdir(parents=True, exist_ok=True)
-        for f in files:
-            (out / f).symlink_to(Path(folder) / f)
-    return dst
-
-
-def _shrink(path: Path, width: int = 48) -> None:
-    """Replace a mirrored scene file by a copy whose film is `width` pixels wide, same aspect, no crop."""
-    text = path.read_text()
-    w = int(re.search(r'name="width"\s+value="(\d+)"', text).group(1))
-    h = int(re.search(r'name="height"\s+value="(\d+)"', text).group(1))
-    text = re.sub(r'(name="width"\s+value=")\d+', rf"\g<1>{width}", text)
-    text = re.sub(r'(name="height"\s+value=")\d+', rf"\g<1>{max(1, round(h * width / w))}", text)
-    text = re.sub(r'<integer name="crop_\w+"[^>]*/>', "", text)
-    path.unlink()
-    path.write_text(text)
-
-
 @needs_scenes
 @pytest.mark.parametrize("name,shrink,params,spp", RENDERS)
-def test_render_matches_mitsuba(tmp_path, name, shrink, params, spp):
+def test_render_matches_mitsuba(tmp_path, request, name, shrink, params, spp):
+    """The image mean within 2% of Mitsuba's at the same spp, and the error against a high-sample Mitsuba reference
+    (tests/data/mitsuba, made by tools/mitsuba_references.py) at most 1.25x that of Mitsuba's own image."""
     mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 renders the reference")
     mi.set_variant("scalar_rgb")
-    root = _mirror(tmp_path / "scenes") if shrink else MITSUBA_SCENES
-    if shrink:
-        _shrink(root / shrink)
-    path = root / name
+    path = small_scene(tmp_path, name, shrink)
     image = np.asarray(durer.render(load_mitsuba(str(path), params=params), samples=spp).color)[..., :3]
     ref = np.array(mi.render(mi.load_file(str(path), **params), spp=spp, seed=11))[..., :3]
     assert image.shape == ref.shape
     assert image.mean() == pytest.approx(ref.mean(), rel=0.02)
     assert np.allclose(image.mean(axis=(0, 1)), ref.mean(axis=(0, 1)), rtol=0.03, atol=1e-3)
+    scene_id = request.node.callspec.id
+    high = load_reference(scene_id)
+    if high is None:
+        pytest.fail(f"no Mitsuba reference for {scene_id}: run tools/mitsuba_references.py {scene_id}")
+    assert high.shape == image.shape, f"stale reference for {scene_id}: run tools/mitsuba_references.py {scene_id}"
+    ours, theirs = rmse(image, high), rmse(ref, high)
+    assert ours <= 1.25 * theirs, (ours, theirs)
