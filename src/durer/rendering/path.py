@@ -22,7 +22,8 @@ import numpy as np
 
 from ..kernels.common import TRIANGLE
 from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
-from ..kernels.path.surface import hit_surfaces
+from ..kernels.path.bsdf import ROUGHCONDUCTOR, ROUGHDIELECTRIC
+from ..kernels.path.surface import hit_surfaces, tangent_kernel
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
 from .bsdfs import BSDFTable
@@ -51,7 +52,11 @@ class PathTracer:
         self._surfaces = tuple(np.ascontiguousarray(a) for a in (
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
             flat.sphere_center, flat.sphere_normal_matrix, flat.sphere_material, flat.plane_normal,
-            flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3))))
+            flat.plane_material, _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3)),
+            flat.triangle_uv.reshape(-1, 3, 2) if flat.has_uv else np.zeros((0, 3, 2))))
+        # anisotropic BSDFs are oriented by Mitsuba's dp/du (kernels/path/surface.tangent_at); others never read it
+        self._anisotropic = bool(np.any(np.isin(self.table.kind, (ROUGHCONDUCTOR, ROUGHDIELECTRIC))
+                                        & (self.table.alpha_u != self.table.alpha_v)))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
         # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators,
         # instances and solid textures take the unfused wavefront of closest_hit / any_hit queries
@@ -174,6 +179,7 @@ class PathTracer:
         thr, eta = np.ones((n, 3)), np.ones(n)
         prev = np.column_stack([np.ones(n), np.ones(n), origins])  # pdf, delta flag, point of the last bounce
         p, ng, ns, slot_em = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
+        du = np.zeros((n, 3))  # dp/du, filled only for scenes with anisotropic BSDFs
         shadow_o, shadow_d, shadow_t, shadow_c, shadow_ok = (np.empty((n, 3)), np.empty((n, 3)), np.empty(n),
                                                              np.empty((n, 3)), np.empty(n, bool))
         sh_o, sh_d, sh_t = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -185,7 +191,10 @@ class PathTracer:
             # camera rays may be traced as image tiles (width 0: the accelerator looks); later rays are not an image
             hits = ctx.accel.closest_hit(o[:m], d[:m], t_min=tmin, width=0 if depth == 0 else -1)
             hit = hits.hit
-            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces, p, ng, ns, slot_em)
+            run_pieces(hit_surfaces, m, o, d, hits.t, hits.kind, hits.prim, *self._surfaces[:-1], p, ng, ns, slot_em)
+            if self._anisotropic:
+                sf = self._surfaces
+                run_pieces(tangent_kernel, m, p, hits.kind, hits.prim, sf[0], sf[-1], sf[2], sf[3], du)
             if depth == 0:
                 first_t[idx], first_n[idx] = hits.t, ng[:m]
             last = 0 <= self.max_depth <= depth + 1
@@ -193,7 +202,7 @@ class PathTracer:
             if tb.is_texture.any() and not last:
                 slot = self._resolve_textures(slot_em[:m], hit, p[:m], uniform(keys[idx], dim1(depth, 3)),
                                               hits.kind, hits.prim)
-            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, ns, slot_em, slot,
+            run_pieces(shade_bounce, m, o, d, hits.t, hits.kind, hits.prim, ng, ns, du, slot_em, slot,
                        (idx, sample_index, keys, pkeys, thr, eta, prev), self._misses(d[:m], hit, depth),
                        tb.packed(), em.pack(), em.env_tables(), (depth, depth > 0 or not self.hide, last,
                                                                  self.rr_depth, self.features), L, aux,

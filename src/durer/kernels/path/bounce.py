@@ -17,11 +17,11 @@ import math
 import numba as nb
 
 from ..common import JIT, MISS, SPHERE, TRIANGLE
-from .bsdf import EMISSION, FLIP, SMOOTH, bsdf_albedo, bsdf_eval, bsdf_sample
+from .bsdf import EMISSION, FLIP, SMOOTH, anisotropic, bsdf_albedo, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
 from .envmap import envmap_eval_pdf, has_map
 from .qmc import sobol2, uniform1
-from .warps import frame3, power_heuristic1, to_local3, to_world3
+from .warps import frame3, power_heuristic1, tangent_frame3, to_local3, to_world3
 
 DIMS = 8  # 1-D random dimensions per bounce: 0 light pick, 1 lobe pick, 2 Russian roulette, 3 texture pick
 
@@ -46,7 +46,8 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, p
 
     ray = (ox, oy, oz, dx, dy, dz); the hit's kind, primitive, t, normals = (geometric gx, gy, gz, shading sx, sy,
     sz: the BSDF frame, side tests and emission use the shading normal, as Mitsuba's shading frame; the
-    solid-angle pdf of an emitter and the offsets of new rays the geometric one) and material slots (se as hit,
+    solid-angle pdf of an emitter and the offsets of new rays the geometric one; dp/du ux, uy, uz: the tangent an
+    anisotropic BSDF is oriented by, surface.tangent_at) and material slots (se as hit,
     s with textures resolved); miss = (radiance r, g, b, light pdf, is an emitter) for a ray that escaped (with an
     environment map, an emitter's radiance and pdf are the map's, looked up here); j the path's row in L, sample,
     keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found light to L[j]; with
@@ -54,7 +55,7 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, p
     normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid, origin, direction, t_max, contribution, and
     next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
     P, T = bsdf
-    gx, gy, gz, hx, hy, hz = normals
+    gx, gy, gz, hx, hy, hz, ux, uy, uz = normals
     K, _, F, _, _, _, tri_em, sph_em = lights
     depth, emit, last, rr_depth, want = scalars
     tint = aux[0]
@@ -106,7 +107,10 @@ def shade_path(ray, hit, kind, prim, t, normals, se, s, miss, j, sample, keys, p
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
     sgn = -1.0 if P[s, FLIP] != 0 else 1.0
     nx, ny, nz = hx * sgn, hy * sgn, hz * sgn
-    ts, tt = frame3(nx, ny, nz)
+    if anisotropic(P, s):
+        ts, tt = tangent_frame3(nx, ny, nz, ux, uy, uz, gx * sgn, gy * sgn, gz * sgn)
+    else:
+        ts, tt = frame3(nx, ny, nz)
     wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
     scale = 1e-7 * (1.0 + max(abs(px), abs(py), abs(pz)))
     # --- next-event estimation (light sampling's share of MIS)
@@ -177,11 +181,12 @@ def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
 
 
 @nb.njit(**JIT)
-def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, slot_em, slot, path, misses, bsdf, lights, env, scalars, L,
-                 aux, shadow, nxt, i0, i1):
+def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, du, slot_em, slot, path, misses, bsdf, lights, env, scalars,
+                 L, aux, shadow, nxt, i0, i1):
     """Shade paths i0..i1 of a wavefront after its closest-hit query (shade_path on each).
 
-    o, d (n, 3) the rays; hit_* the Hits; ng, ns (n, 3) geometric and shading normals; slot_em the hit's material slot,
+    o, d (n, 3) the rays; hit_* the Hits; ng, ns (n, 3) geometric and shading normals, du (n, 3) dp/du (read only
+    on anisotropic BSDFs); slot_em the hit's material slot,
     slot the same with solid textures resolved; path = (idx, sample, keys, pixel keys, thr (n,3), eta,
     prev (n, 5): pdf of the last BSDF sample, its delta flag, the point it left from); misses = (radiance (n,3),
     light pdf (n,), is an emitter (n,)) of rays that escaped; bsdf = (P, T) packed table; lights = (kinds,
@@ -198,7 +203,8 @@ def shade_bounce(o, d, hit_t, hit_kind, hit_prim, ng, ns, slot_em, slot, path, m
         k = hit_kind[i]
         ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
             (o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]), k != MISS, k, hit_prim[i], hit_t[i],
-            (ng[i, 0], ng[i, 1], ng[i, 2], ns[i, 0], ns[i, 1], ns[i, 2]), slot_em[i], slot[i],
+            (ng[i, 0], ng[i, 1], ng[i, 2], ns[i, 0], ns[i, 1], ns[i, 2], du[i, 0], du[i, 1], du[i, 2]), slot_em[i],
+            slot[i],
             (miss_le[i, 0], miss_le[i, 1], miss_le[i, 2], miss_pdf[i], miss_em[i]), idx[i], sample, keys, pkeys,
             (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
             bsdf, lights, env, scalars, L, aux)

@@ -26,6 +26,14 @@ COLUMNS = 27
 
 
 @nb.njit(**JIT, inline="always")
+def anisotropic(P, s):
+    """Does slot s's BSDF depend on the tangent's direction (alpha_u != alpha_v)? Only these are shaded in Mitsuba's
+    dp/du frame (warps.tangent_frame3); the rest keep frame3(n), whatever the tangent, so their images stay."""
+    k = P[s, KIND]
+    return (k == ROUGHCONDUCTOR or k == ROUGHDIELECTRIC) and P[s, AU] != P[s, AV]
+
+
+@nb.njit(**JIT, inline="always")
 def _reflect(wx, wy, wz, mx, my, mz):
     c = 2.0 * (wx * mx + wy * my + wz * mz)
     return c * mx - wx, c * my - wy, c * mz - wz

@@ -79,3 +79,49 @@ def hit_surfaces(o, d, t, kind, prim, tris, tri_mat, w2o, center, normal_matrix,
                                                      normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
         ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
         ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
+
+
+@nb.njit(**JIT)
+def tangent_at(px, py, pz, k, j, tris, tri_uv, w2o, center):
+    """dp/du at point p of a hit of kind k on primitive j, as Mitsuba's shapes define it (its shading frame's first
+    tangent, which orients anisotropic BSDFs): a triangle's from its edges and UV differences (tri_uv (F, 3, 2)),
+    its first edge where it has no UVs (all zero, or fewer rows than triangles: Mitsuba's UVs are then the
+    barycentric coordinates), zeros where its UVs are degenerate (warps.tangent_frame3 then takes the geometric
+    normal's coordinate system); a sphere's (-y, x, 0) in its object space taken to world
+    space; zeros on planes and misses."""
+    if k == TRIANGLE:
+        if j >= tri_uv.shape[0] or (tri_uv[j, 0, 0] == 0 and tri_uv[j, 0, 1] == 0 and tri_uv[j, 1, 0] == 0
+                                    and tri_uv[j, 1, 1] == 0 and tri_uv[j, 2, 0] == 0 and tri_uv[j, 2, 1] == 0):
+            # no UVs: Mitsuba's are the barycentric (b1, b2), so dp/du is the first edge
+            return tris[j, 1, 0] - tris[j, 0, 0], tris[j, 1, 1] - tris[j, 0, 1], tris[j, 1, 2] - tris[j, 0, 2]
+        du0, dv0 = tri_uv[j, 1, 0] - tri_uv[j, 0, 0], tri_uv[j, 1, 1] - tri_uv[j, 0, 1]
+        du1, dv1 = tri_uv[j, 2, 0] - tri_uv[j, 0, 0], tri_uv[j, 2, 1] - tri_uv[j, 0, 1]
+        det = du0 * dv1 - dv0 * du1
+        if det == 0:
+            return 0.0, 0.0, 0.0
+        inv = 1.0 / det
+        return ((dv1 * (tris[j, 1, 0] - tris[j, 0, 0]) - dv0 * (tris[j, 2, 0] - tris[j, 0, 0])) * inv,
+                (dv1 * (tris[j, 1, 1] - tris[j, 0, 1]) - dv0 * (tris[j, 2, 1] - tris[j, 0, 1])) * inv,
+                (dv1 * (tris[j, 1, 2] - tris[j, 0, 2]) - dv0 * (tris[j, 2, 2] - tris[j, 0, 2])) * inv)
+    if k == SPHERE:
+        m = w2o[j]
+        qx = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3] - center[j, 0]
+        qy = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3] - center[j, 1]
+        # object -> world is the inverse of w2o's linear part: its adjugate over its determinant, applied to
+        # (-qy, qx, 0)
+        c00, c01 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1], m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
+        c10, c11 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2], m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]
+        c20, c21 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0], m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
+        det = m[0, 0] * c00 + m[0, 1] * c10 + m[0, 2] * c20
+        if det == 0:
+            return 0.0, 0.0, 0.0
+        return (c00 * -qy + c01 * qx) / det, (c10 * -qy + c11 * qx) / det, (c20 * -qy + c21 * qx) / det
+    return 0.0, 0.0, 0.0
+
+
+@nb.njit(**JIT)
+def tangent_kernel(p, kind, prim, tris, tri_uv, w2o, center, out, i0, i1):
+    """out[i] = tangent_at of hits i0..i1 at points p."""
+    for i in range(i0, i1):
+        out[i, 0], out[i, 1], out[i, 2] = tangent_at(p[i, 0], p[i, 1], p[i, 2], kind[i], prim[i], tris, tri_uv,
+                                                     w2o, center)

@@ -15,8 +15,9 @@ import numpy as np
 from ..bvh.single import blas_any, blas_closest, planes_closest
 from ..common import JIT, MISS, PLANE
 from .bounce import shade_path
+from .bsdf import anisotropic
 from .qmc import mix64
-from .surface import surface_at
+from .surface import surface_at, tangent_at
 
 # The accelerator's one-ray walks, compiled from the same Python functions (no second copy of the traversal) for
 # this kernel: a call passes a dozen arrays, each seven words by value, and the callee updates their reference
@@ -51,7 +52,8 @@ def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, 
     live: the row of each live path in the wavefront's arrays; o, d (n, 3) its ray, thr (n, 3) throughput, eta
     (n,), prev (n, 5) as in shade_bounce, all overwritten with the next bounce's; path = (sample, keys, pixel
     keys) (n,); accel = the one-level BVH's arrays (BVHAccelerator._args: bounds, child, leaf slots and
-    triangles, spheres, planes, stack size); surfaces = CompiledScene.flat's arrays as hit_surfaces takes them;
+    triangles, spheres, planes, stack size); surfaces = CompiledScene.flat's arrays as hit_surfaces takes them and its
+    corner UVs (tangent_at);
     miss = (radiance r, g, b, light pdf, is an emitter) of every escaping ray; bsdf, lights, env and scalars as
     shade_bounce's; t_min of the rays. Adds found light to L (n, 3) and features to aux as shade_path; on bounce 0
     writes each path's first hit to first = (t (n,), geometric normal (n, 3)); alive[k] says whether path live[k]
@@ -70,7 +72,7 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     """trace_bounce's work on path i (live[k])."""
     sample, keys, pkeys = path
     bounds, child, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o, pl_n, pl_off, _ = accel
-    tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n = surfaces
+    tris, tri_mat, w2o, center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n, tri_uv = surfaces
     first_t, first_n = first
     ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
     best, pprim = _planes(pl_n, pl_off, ox, oy, oz, dx, dy, dz, t_min, np.inf)
@@ -82,13 +84,16 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     h = t if hit else 0.0
     gx, gy, gz, sx, sy, sz, s = surface_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_mat, w2o,
                                            center, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
+    ux = uy = uz = 0.0
+    if s >= 0 and anisotropic(bsdf[0], s):
+        ux, uy, uz = tangent_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_uv, w2o, center)
     if scalars[0] == 0:
         first_t[i] = t
         first_n[i, 0], first_n[i, 1], first_n[i, 2] = gx, gy, gz
     ok, so, sd, st, sc, nt, no, nd, npv, ne = shade_path(
-        (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, (gx, gy, gz, sx, sy, sz), s, s, miss, i, sample, keys, pkeys,
-        (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i], (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]),
-        bsdf, lights, env, scalars, L, aux)
+        (ox, oy, oz, dx, dy, dz), hit, kind, prim, t, (gx, gy, gz, sx, sy, sz, ux, uy, uz), s, s, miss, i, sample,
+        keys, pkeys, (thr[i, 0], thr[i, 1], thr[i, 2]), eta[i],
+        (prev[i, 0], prev[i, 1], prev[i, 2], prev[i, 3], prev[i, 4]), bsdf, lights, env, scalars, L, aux)
     if ok:
         _, blocker = _planes(pl_n, pl_off, so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st)
         if blocker < 0 and not _any(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
