@@ -53,6 +53,7 @@ from ..kernels.path.bsdf import (
     ROUGHPLASTIC,
     SMOOTH,
     SPEC_WEIGHT,
+    THINDIELECTRIC,
     TWOSIDED,
     eval_kernel,
     sample_kernel,
@@ -67,6 +68,7 @@ from ..scene.bsdfs import (
     RoughDielectric,
     RoughPlastic,
     Surface,
+    ThinDielectric,
     TwoSided,
 )
 from ..scene.materials import PhongMaterial
@@ -130,7 +132,7 @@ class BSDFTable:
                                (EXPONENT, self.exponent), (SPEC_WEIGHT, self.spec_weight), (FDR_INT, self.fdr_int),
                                (BECKMANN, self.beckmann)):
                 P[:, col] = value
-            smooth = ~np.isin(self.kind, (DIELECTRIC, CONDUCTOR, BLACK))
+            smooth = ~np.isin(self.kind, (DIELECTRIC, THINDIELECTRIC, CONDUCTOR, BLACK))
             phong = self.kind == PHONG
             smooth[phong] = (self.c1[phong].max(1) > 0) | (self.c2[phong].max(1) > 0)
             P[:, SMOOTH] = smooth
@@ -162,6 +164,9 @@ def _row(m) -> dict:
     elif isinstance(m, RoughDielectric):
         r.update(kind=ROUGHDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
                  eta=m.int_ior / m.ext_ior, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")
+    elif isinstance(m, ThinDielectric):
+        r.update(kind=THINDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
+                 eta=m.int_ior / m.ext_ior)
     elif isinstance(m, Dielectric):
         r.update(kind=DIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance, eta=m.int_ior / m.ext_ior)
     elif isinstance(m, Conductor):

@@ -113,6 +113,12 @@ class Dielectric:
 
 
 @dataclass
+class ThinDielectric(Dielectric):
+    """A thin glass pane (Mitsuba's `thindielectric`): light reflects with the slab's summed Fresnel reflectance
+    or passes straight through, unbent; seen alike from both sides."""
+
+
+@dataclass
 class RoughDielectric(Dielectric):
     """Rough glass (Mitsuba's `roughdielectric`): GGX or Beckmann microfacets reflecting and refracting (Walter et
     al. 2007), sampled from the visible normals."""
@@ -203,7 +209,8 @@ class TwoSided:
             raise ValueError(f"twosided cannot wrap a {type(self.bsdf).__name__}")
 
 
-BSDF = Diffuse | Dielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided
+BSDF = (Diffuse | Dielectric | ThinDielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic
+        | TwoSided)
 
 
 @dataclass
