@@ -185,3 +185,20 @@ def test_checkerboard_on_a_bsdf_parameter(tmp_path):
     with pytest.raises(SceneError, match="no texture coordinates"):
         load_mitsuba(str(scene(tmp_path, body.replace('type="rectangle">', 'type="obj"><string name="filename" '
                                                                            'value="flat.obj"/>'))))
+
+
+def test_thindielectric_reads_its_parameters(tmp_path):
+    """thindielectric: int_ior / ext_ior (numbers or Mitsuba's names) and both colours, Mitsuba's defaults."""
+    from durer.scene.bsdfs import ThinDielectric
+
+    body = ('<shape type="rectangle"><bsdf type="thindielectric"><string name="int_ior" value="water"/>'
+            '<float name="ext_ior" value="1.2"/><rgb name="specular_transmittance" value="0.5, 0.6, 0.7"/>'
+            '</bsdf></shape><shape type="sphere"><bsdf type="thindielectric"/></shape>')
+    s = load_mitsuba(str(scene(tmp_path, body)))
+    a, b = (s.materials[getattr(o, "object", o).material].bsdf for o in s.group.objects)
+    assert isinstance(a, ThinDielectric) and (a.int_ior, a.ext_ior) == (1.333, 1.2)
+    assert np.allclose(a.specular_transmittance, [0.5, 0.6, 0.7]) and np.allclose(a.specular_reflectance, 1)
+    assert (b.int_ior, b.ext_ior) == (1.5046, 1.000277)
+    with pytest.raises(SceneError, match="cannot appear in bsdf 'thindielectric'"):
+        load_mitsuba(str(scene(tmp_path, '<shape type="sphere"><bsdf type="thindielectric"><bsdf type="diffuse"/>'
+                                         '</bsdf></shape>')))

@@ -4,6 +4,7 @@ accel/hits' NumPy definitions, on triangles, a mesh placed twice (instances), a 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from durer import Cylinder, Disk, Group, Plane, Scene, Sphere, Transform, TriangleMesh
 from durer.accel.bvh import BVHAccelerator
@@ -36,10 +37,13 @@ def test_hit_surfaces_match_the_numpy_definitions():
                  flat.sphere_world_to_object, flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix,
                  flat.sphere_material, flat.plane_normal, flat.plane_material, np.zeros((0, 3, 3)), np.zeros((0, 3, 2)),
                  p, ng, ns, uvd, slot, 0, 4000)
-    # no mesh UVs: only the spheres have texture coordinates, Mitsuba's (phi / 2 pi, theta / pi), no derivatives
-    on_sphere = hits.kind == 2
-    assert not uvd[~on_sphere].any() and not uvd[:, 2:].any()
+    # no mesh UVs: Mitsuba's barycentric ones (dp/du, dp/dv the edges); spheres (phi / 2 pi, theta / pi); planes none
+    on_sphere, on_tri = hits.kind == 2, hits.kind == 1
+    assert not uvd[~(on_sphere | on_tri)].any()
     np.testing.assert_allclose(uvd[on_sphere, :2], cs.analytic_uv(hits.prim[on_sphere], p[on_sphere]), atol=1e-12)
+    tri = flat.triangles.reshape(-1, 3, 3)[hits.prim[on_tri]]
+    np.testing.assert_allclose(uvd[on_tri, 2:5], tri[:, 1] - tri[:, 0], atol=1e-12)
+    np.testing.assert_allclose(uvd[on_tri, 5:], tri[:, 2] - tri[:, 0], atol=1e-12)
     expect_p = o + np.where(hits.hit, hits.t, 0.0)[:, None] * d
     np.testing.assert_allclose(p, expect_p, rtol=0, atol=1e-12)
     np.testing.assert_allclose(ng, geometric_normals(cs, hits, expect_p), rtol=0, atol=1e-12)
@@ -77,3 +81,59 @@ def test_vertex_normals_are_interpolated_at_the_hit():
     np.testing.assert_allclose(ng, [[0, 0, 1], [0, 0, 1]], atol=1e-12)  # the geometric normal stays
     hit_surfaces(*args, np.zeros((0, 3, 3)), tri_uv, p, ng, ns, uvd, slot, 0, 2)
     np.testing.assert_allclose(ns, [[0, 0, 1], [0, 0, 1]], atol=1e-12)
+
+
+def test_tangent_frame_is_mitsubas_shading_frame(tmp_path):
+    """surface.uv_at's dp/du + warps.tangent_frame3 give Mitsuba's sh_frame.s (which orients anisotropic BSDFs) on a
+    smooth mesh with UVs, one without UVs (Mitsuba's UVs are then barycentric) and a rotated, scaled sphere."""
+    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 defines the shading frame being matched")
+    trimesh = pytest.importorskip("trimesh")
+    import durer
+    from durer.kernels.path.warps import tangent_frame3
+
+    mi.set_variant("scalar_rgb")
+    ball = trimesh.creation.uv_sphere(radius=1.0, count=[12, 16])
+    v = ball.vertices
+    uv = np.column_stack([np.arctan2(v[:, 1], v[:, 0]) / (2 * np.pi) + 0.5, v[:, 2] * 0.5 + 0.5])
+    trimesh.Trimesh(v, ball.faces, vertex_normals=ball.vertex_normals, process=False,
+                    visual=trimesh.visual.TextureVisuals(uv=uv)).export(tmp_path / "uv.ply")
+    trimesh.Trimesh(v + [3, 0, 0], ball.faces, vertex_normals=ball.vertex_normals,
+                    process=False).export(tmp_path / "plain.ply")
+    to_world = mi.ScalarTransform4f().translate([0, 3, 0]).rotate([0.6, 0.8, 0], 30).scale(1.5)
+    look = mi.ScalarTransform4f().look_at([0, 0, 8], [0, 0, 0], [0, 1, 0])
+
+    def scene(matrix):
+        return {"type": "scene", "sensor": {"type": "perspective", "to_world": matrix(look)},
+                "a": {"type": "ply", "filename": str(tmp_path / "uv.ply")},
+                "b": {"type": "ply", "filename": str(tmp_path / "plain.ply")},
+                "c": {"type": "sphere", "to_world": matrix(to_world)}}
+
+    theirs = mi.load_dict(scene(lambda m: m))
+    cs = compile_scene(durer.load_dict(scene(lambda m: np.array(m.matrix))))
+    flat = cs.flat
+    rng = np.random.default_rng(5)
+    n = 1500
+    o = np.column_stack([rng.uniform(-2, 5, n), rng.uniform(-2, 5, n), np.full(n, 8.0)])
+    d = np.column_stack([rng.normal(0, 0.05, (n, 2)), -np.ones(n)])
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    hits = BVHAccelerator(cs).closest_hit(o, d)
+    corners = cs.triangle_normals.reshape(-1, 3, 3)
+    corners = corners / np.linalg.norm(corners, axis=2, keepdims=True)
+    p, ng, ns, slot, uvd = (np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64),
+                            np.empty((n, 8)))
+    tris = flat.triangles.reshape(-1, 3, 3)
+    hit_surfaces(o, d, hits.t, hits.kind, hits.prim, tris, flat.triangle_material, flat.sphere_world_to_object,
+                 flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix, flat.sphere_material,
+                 flat.plane_normal, flat.plane_material, corners, flat.triangle_uv.reshape(-1, 3, 2), p, ng, ns, uvd,
+                 slot, 0, n)
+    du = uvd[:, 2:5]
+    seen = {}
+    for i in np.flatnonzero(hits.hit):
+        si = theirs.ray_intersect(mi.Ray3f(o[i], d[i]))
+        if not si.is_valid() or abs(si.t - hits.t[i]) > 1e-4 * hits.t[i]:
+            continue  # grazing rays where float32 and float64 disagree on what was hit
+        s, t = tangent_frame3(*ns[i], *du[i], *ng[i])
+        np.testing.assert_allclose(s, np.array(si.sh_frame.s), atol=2e-5)
+        np.testing.assert_allclose(t, np.array(si.sh_frame.t), atol=2e-5)
+        seen[si.shape.id()] = seen.get(si.shape.id(), 0) + 1
+    assert set(seen) == {"a", "b", "c"} and min(seen.values()) > 50, seen

@@ -19,7 +19,7 @@ LAYERS = {
     "io": 3,
     "accel": 4,
     "rendering": 5,
-    "query": 6, "query_args": 6, "pinhole": 6, "trimesh": 7,
+    "query": 6, "query_args": 6, "query_normals": 6, "pinhole": 6, "trimesh": 7,
     "cli": 7, "cli_args": 7, "cli_explain": 7, "cli_frames": 7, "preview": 7, "dask": 7, "warmup": 7, "__init__": 7,
     "__main__": 8,
 }

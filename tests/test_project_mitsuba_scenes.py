@@ -1,17 +1,16 @@
 """Real Mitsuba 3 scenes (../shared/scenes/mitsuba, issue 20): every scene durer reads loads unchanged, and small
-renders match Mitsuba 3's scalar_rgb render of the same file (image mean within 2%). Films are made small through
-the scene's own parameters or, where it has none, in an edited copy inside a mirror of the folder tree (symlinks),
-so that <path>, <include> and file names resolve as in the original."""
+renders match Mitsuba 3's scalar_rgb render of the same file: image mean within 2%, and error against a high-sample
+Mitsuba reference (tests/data/mitsuba, made by tools/mitsuba_references.py) at most 1.25x Mitsuba's at equal samples.
+Films are made small through the scene's own parameters or, where it has none, in an edited copy inside a mirror of
+the folder tree (symlinks, tools/mitsuba_references.small_scene), so that <path>, <include> and file names resolve as
+in the original. A scene added to RENDERS needs its reference: `python tools/mitsuba_references.py ID`."""
 
 from __future__ import annotations
-
-import os
-import re
-from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import MITSUBA_SCENES
+from mitsuba_references import load_reference, rmse, small_scene
 
 import durer
 from durer.io.mitsuba import load_mitsuba
@@ -30,7 +29,6 @@ LOADABLE = [
     "mitsuba-data/docs/scenes/bsdf_twosided_cbox.xml",
     "mitsuba-data/docs/scenes/integrator_direct_both.xml",
     "mitsuba-data/docs/scenes/bsdf_roughdielectric_textured.xml",
-    # loads; renders 3.7% bright: durer's tangent frame is not Mitsuba's dp/du, which anisotropic roughness sees
     "mitsuba-data/docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml",
     "mitsuba-data/tests/scenes/instancing/test_instancing_path.xml",
     "mitsuba-data/tests/scenes/infinite_mirrors/scene_path.xml",
@@ -62,13 +60,22 @@ RENDERS = [
                  "mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml", {}, 32, id="orthographic"),
     pytest.param("mitsuba-data/docs/scenes/bsdf_roughplastic_ggx.xml",
                  "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 32, id="roughplastic-ggx"),
+    # anisotropic Beckmann roughness, oriented by the mesh's dp/du as in Mitsuba
+    pytest.param("mitsuba-data/docs/scenes/bsdf_roughconductor_anisotropic_aluminium.xml",
+                 "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 32, id="anisotropic-aluminium"),
     pytest.param("mitsuba-data/docs/scenes/shape_ply_bunny.xml", "mitsuba-data/docs/scenes/include/shape_scene.xml",
                  {}, 32, id="bunny"),
-    # known gap: durer's mean is 1-2.5% below Mitsuba's here (128 spp, several seeds); with alpha 0.1 in place of
-    # the checkerboard's 0 (raised to 1e-4) the gap is 0.7%, so the near-smooth Beckmann glass is the suspect
+    # known gap, measured (48x36, durer 256 spp against Mitsuba llvm 4096 spp): the checkerboard scene 2.4% dark
+    # and bluer (R -1.6%, B -3.2%); the BSDF is not the cause: eval/pdf and sample (direction, weight, lobe) equal
+    # Mitsuba's at alpha 1e-4..0.4 from both sides (tests/test_rendering_bsdfs.py), and the same object with one
+    # alpha everywhere is -0.4% (1e-4), -0.6% (0.1), 0.0% (0.4); through the unfused (textured) wavefront with
+    # both checker colours 1e-4, -0.4% as the fused one. The gap comes with mixing the cells (0.1/0.4: -0.9%),
+    # not with the checker lookup (a diffuse checkerboard on the object: 0.1%) and not in a white furnace (a UV
+    # sphere with 1e-4/0.4 cells under a constant environment: 0.03%); with a floor and a small area light that
+    # sphere is +0.9% (pure cells +0.1%), so light transport between cells of different roughness is the suspect
     pytest.param("mitsuba-data/docs/scenes/bsdf_roughdielectric_textured.xml",
                  "mitsuba-data/docs/scenes/include/matpreview.xml", {}, 128, id="roughdielectric-textured",
-                 marks=[SLOW, pytest.mark.xfail(reason="durer 1-2.5% darker than Mitsuba (near-smooth Beckmann glass)",
+                 marks=[SLOW, pytest.mark.xfail(reason="durer 2.4% darker than Mitsuba: paths across cells of different roughness (see the comment)",
                                                 strict=False)]),
     # small bright emitters: Mitsuba's own mean moves by 3% between 256-spp renders, so 512 spp
     pytest.param("mitsuba-data/docs/scenes/integrator_direct_both.xml",
@@ -104,39 +111,23 @@ def test_scene_loads(name):
     assert s.camera is not None and s.group.objects and s.render_defaults["width"] > 0
 
 
-def _mirror(dst: Path) -> Path:
-    """The scene tree as folders of symlinks under dst, so one file can be replaced by an edited copy."""
-    for folder, _, files in os.walk(MITSUBA_SCENES):
-        out = dst / Path(folder).relative_to(MITSUBA_SCENES)
-        out.mkdir(parents=True, exist_ok=True)
-        for f in files:
-            (out / f).symlink_to(Path(folder) / f)
-    return dst
-
-
-def _shrink(path: Path, width: int = 48) -> None:
-    """Replace a mirrored scene file by a copy whose film is `width` pixels wide, same aspect, no crop."""
-    text = path.read_text()
-    w = int(re.search(r'name="width"\s+value="(\d+)"', text).group(1))
-    h = int(re.search(r'name="height"\s+value="(\d+)"', text).group(1))
-    text = re.sub(r'(name="width"\s+value=")\d+', rf"\g<1>{width}", text)
-    text = re.sub(r'(name="height"\s+value=")\d+', rf"\g<1>{max(1, round(h * width / w))}", text)
-    text = re.sub(r'<integer name="crop_\w+"[^>]*/>', "", text)
-    path.unlink()
-    path.write_text(text)
-
-
 @needs_scenes
 @pytest.mark.parametrize("name,shrink,params,spp", RENDERS)
-def test_render_matches_mitsuba(tmp_path, name, shrink, params, spp):
+def test_render_matches_mitsuba(tmp_path, request, name, shrink, params, spp):
+    """The image mean within 2% of Mitsuba's at the same spp, and the error against a high-sample Mitsuba reference
+    (tests/data/mitsuba, made by tools/mitsuba_references.py) at most 1.25x that of Mitsuba's own image."""
     mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 renders the reference")
     mi.set_variant("scalar_rgb")
-    root = _mirror(tmp_path / "scenes") if shrink else MITSUBA_SCENES
-    if shrink:
-        _shrink(root / shrink)
-    path = root / name
+    path = small_scene(tmp_path, name, shrink)
     image = np.asarray(durer.render(load_mitsuba(str(path), params=params), samples=spp).color)[..., :3]
     ref = np.array(mi.render(mi.load_file(str(path), **params), spp=spp, seed=11))[..., :3]
     assert image.shape == ref.shape
     assert image.mean() == pytest.approx(ref.mean(), rel=0.02)
     assert np.allclose(image.mean(axis=(0, 1)), ref.mean(axis=(0, 1)), rtol=0.03, atol=1e-3)
+    scene_id = request.node.callspec.id
+    high = load_reference(scene_id)
+    if high is None:
+        pytest.fail(f"no Mitsuba reference for {scene_id}: run tools/mitsuba_references.py {scene_id}")
+    assert high.shape == image.shape, f"stale reference for {scene_id}: run tools/mitsuba_references.py {scene_id}"
+    ours, theirs = rmse(image, high), rmse(ref, high)
+    assert ours <= 1.25 * theirs, (ours, theirs)

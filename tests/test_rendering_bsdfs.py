@@ -16,6 +16,7 @@ from durer.scene.materials import PhongMaterial
 ALL = {
     "diffuse": S.Diffuse([0.2, 0.5, 0.9]),
     "dielectric": S.Dielectric(1.5),
+    "thindielectric": S.ThinDielectric(1.5, specular_transmittance=[0.9, 0.8, 0.7]),
     "conductor": S.Conductor.named("Au"),
     "mirror": S.Conductor(),
     "roughconductor": S.RoughConductor.named("Cu", alpha_u=0.3, alpha_v=0.3),
@@ -197,3 +198,69 @@ def test_roughdielectric_matches_mitsuba_from_both_sides(distribution, alpha, et
     assert (np.array(mp) > 0).sum() > 50 and ((wi[:, 2] * wo[:, 2]) < 0).sum() > 50
     np.testing.assert_allclose(v, np.array(mv), rtol=1e-4, atol=1e-5 * np.max(mv))
     np.testing.assert_allclose(p, np.array(mp), rtol=1e-4, atol=1e-5 * np.max(mp))
+
+
+@pytest.mark.parametrize("alpha", [1e-4, 1e-3, 1e-2, 0.1])
+def test_near_smooth_beckmann_glass_samples_as_mitsuba(alpha):
+    """roughdielectric's sample equals Mitsuba's for the same random numbers, entering and leaving, down to the
+    1e-4 floor of alpha (the textured roughdielectric scene's smooth cells): the same lobe (up to Mitsuba's float32
+    lobe choice at a boundary), the same mean weight and mean direction, and from alpha 1e-2 up the same direction
+    and weight sample by sample (below it both take the normal-incidence branch of the visible-normal inversion,
+    which maps the random numbers to other directions of the same lobe)."""
+    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is the independent reference for the BSDF values")
+    mi.set_variant("scalar_rgb")
+    b = mi.load_dict({"type": "roughdielectric", "distribution": "beckmann", "alpha": alpha, "int_ior": "bk7",
+                      "ext_ior": "air"})
+    t = _table(S.RoughDielectric(1.5046, 1.000277, alpha_u=alpha, alpha_v=alpha, distribution="beckmann"))
+    rng = np.random.default_rng(6)
+    ctx = mi.BSDFContext()
+    for cos in (0.9, 0.3, -0.4, -0.9):
+        n = 300
+        wi = np.tile([math.sqrt(1 - cos * cos), 0.0, cos], (n, 1))
+        u1, u2 = rng.random(n), rng.random((n, 2))
+        wo, w, _, _, _ = R.sample(t, np.zeros(n, int), wi, u1, u2)
+        si = mi.SurfaceInteraction3f()
+        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+        si.wi = mi.Vector3f(wi[0])
+        theirs = [b.sample(ctx, si, float(a), mi.Point2f(*c)) for a, c in zip(u1, u2, strict=True)]
+        mwo = np.array([list(bs.wo) for bs, _ in theirs])
+        mw = np.array([list(ww) for _, ww in theirs])
+        assert (np.sign(wo[:, 2]) == np.sign(mwo[:, 2])).mean() >= 0.98
+        assert w.mean() == pytest.approx(mw.mean(), rel=0.01)
+        np.testing.assert_allclose(wo.mean(0), mwo.mean(0), atol=0.02 + 4 * alpha)
+        if alpha >= 1e-2:
+            same = (np.abs(wo - mwo).max(1) < 1e-4) & (np.abs(w - mw).max(1) < 1e-4 * (1 + np.abs(mw).max(1)))
+            assert same.mean() >= 0.98, (cos, same.mean())
+
+
+def test_thindielectric_samples_as_mitsuba():
+    """thindielectric from both sides: the lobe, direction, weight and pdf of Mitsuba's sample for the same random
+    number (reflect with R' = 2R / (1 + R), else straight through), and no value or pdf from eval."""
+    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is the independent reference for the BSDF values")
+    mi.set_variant("scalar_rgb")
+    b = mi.load_dict({"type": "thindielectric", "int_ior": 1.7, "ext_ior": 1.1,
+                      "specular_reflectance": {"type": "rgb", "value": [0.9, 0.7, 0.5]},
+                      "specular_transmittance": {"type": "rgb", "value": [0.6, 0.8, 1.0]}})
+    t = _table(S.ThinDielectric(1.7, 1.1, [0.9, 0.7, 0.5], [0.6, 0.8, 1.0]))
+    rng = np.random.default_rng(7)
+    n = 300
+    wi = _dirs(rng, n, upper=False)
+    u1, u2 = rng.random(n), rng.random((n, 2))
+    wo, w, pdf, delta, eta = R.sample(t, np.zeros(n, int), wi, u1, u2)
+    ctx = mi.BSDFContext()
+    mwo, mw, mpdf = [], [], []
+    for a, u, c in zip(wi, u1, u2, strict=True):
+        si = mi.SurfaceInteraction3f()
+        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+        si.wi = mi.Vector3f(a)
+        bs, ww = b.sample(ctx, si, float(u), mi.Point2f(*c))
+        mwo.append(list(bs.wo))
+        mw.append(list(ww))
+        mpdf.append(bs.pdf)
+        assert not any(b.eval(ctx, si, bs.wo)) and b.pdf(ctx, si, bs.wo) == 0
+    np.testing.assert_allclose(wo, mwo, atol=1e-6)
+    np.testing.assert_allclose(w, mw, rtol=1e-6)
+    np.testing.assert_allclose(pdf, mpdf, rtol=1e-5)
+    assert delta.all() and (eta == 1).all() and 30 < (wo[:, 2] * wi[:, 2] > 0).sum() < n - 30
+    v, p = R.eval_pdf(t, np.zeros(n, int), wi, wo)
+    assert not v.any() and not p.any()

@@ -18,6 +18,7 @@ import os
 import numpy as np
 
 from . import pinhole
+from . import query_normals as qn
 from .accel import batches
 from .accel.batches import RayBatch
 from .accel.bvh import Shape, TwoLevelBVH, flat_image_width
@@ -72,19 +73,23 @@ class RaycastingScene:
         self._instances: list[tuple[int, np.ndarray]] = []  # (shape index, object-to-world 4x4)
         self._bvh: TwoLevelBVH | None = None  # built on the first query after a change
         self._distance: DistanceIndex | None = None  # point queries' index over self._bvh, built on first use
+        self._corners: dict[int, np.ndarray] = {}  # shape index -> (F, 3, 3) unit vertex normals (query_normals)
 
     # ---------------------------------------------------------------------------------------------- adding
     def add_triangles(self, vertex_positions=None, triangle_indices=None, transform=None, *, mesh=None,
-                      vertices=None, triangles=None) -> int:
+                      vertices=None, triangles=None, vertex_normals=None) -> int:
         """Add a mesh: vertex_positions (V, 3) float and triangle_indices (F, 3) int (Open3D's names; durer's
         vertices / triangles also work), or one mesh (an Open3D or trimesh triangle mesh) as the first argument
-        or mesh=. Returns its geometry id."""
+        or mesh=. vertex_normals (V, 3), or a given mesh's own, are what cast_rays(primitive_normals=
+        "interpolated") mixes at the hits. Returns its geometry id."""
         if mesh is not None or (triangle_indices is None and triangles is None and vertex_positions is not None
                                 and mesh_arrays(vertex_positions) is not None):
-            arrays = mesh_arrays(mesh if mesh is not None else vertex_positions)
+            given = mesh if mesh is not None else vertex_positions
+            arrays = mesh_arrays(given)
             if arrays is None:
                 raise ValueError(f"add_triangles needs a triangle mesh, got {type(mesh).__name__}")
             vertex_positions, triangle_indices = arrays
+            vertex_normals = qn.vertex_normals(given) if vertex_normals is None else vertex_normals
         vertex_positions = vertices if vertex_positions is None else vertex_positions
         triangle_indices = triangles if triangle_indices is None else triangle_indices
         if vertex_positions is None or triangle_indices is None:
@@ -102,7 +107,10 @@ class RaycastingScene:
         if f.size and (f.min() < 0 or f.max() >= len(v)):
             bad = f[(f < 0) | (f >= len(v))][0]
             raise ValueError(f"triangle index {bad} out of range for {len(v)} vertices")
+        corners = None if vertex_normals is None else qn.corner_normals(vertex_normals, f, len(v))
         self._shapes.append(Shape.mesh(v[f]))
+        if corners is not None:
+            self._corners[len(self._shapes) - 1] = corners
         return self._add(len(self._shapes) - 1, transform)
 
     def add_mesh(self, mesh, transform=None) -> int:
@@ -114,14 +122,16 @@ class RaycastingScene:
             if not os.path.exists(mesh):
                 raise FileNotFoundError(f"no such mesh file: {os.fspath(mesh)}")
             try:
-                mesh = trimesh.load(os.fspath(mesh), force="mesh", process=False)
+                loaded = trimesh.load(os.fspath(mesh), process=False)  # a mesh file keeps its vertex normals
+                mesh = loaded if isinstance(loaded, trimesh.Trimesh) else trimesh.load(
+                    os.fspath(mesh), force="mesh", process=False)
             except (NotImplementedError, ValueError, KeyError, IndexError, OSError) as e:
                 raise ValueError(f"cannot read mesh file {os.fspath(mesh)!r} (trimesh reads PLY, STL, OBJ, OFF, glTF, "
                                  f"...): {e}") from None
         arrays = mesh_arrays(mesh)
         if arrays is None:
             raise ValueError(f"add_mesh needs a triangle mesh or a path, got {type(mesh).__name__}")
-        return self.add_triangles(*arrays, transform)
+        return self.add_triangles(*arrays, transform, vertex_normals=qn.vertex_normals(mesh))
 
     def add_sphere(self, center, radius: float, transform=None) -> int:
         """Add a sphere (an ellipsoid under a non-uniform transform). Returns its geometry id."""
@@ -206,22 +216,27 @@ class RaycastingScene:
         return np.ascontiguousarray(a).reshape(-1)
 
     def cast_rays(self, rays, nthreads: int = 0, *, directions=None, t_min=None, t_max=None, tnear=None,
-                  tfar=None) -> dict:
+                  tfar=None, primitive_normals: str = "face") -> dict:
         """Closest hit of each ray: Open3D's cast_rays(rays (..., 6), nthreads=0). durer also takes
         cast_rays(origins, directions) (two (..., 3) arrays), a t range t_min / t_max (or tnear / tfar: scalars
         or per ray) and float64 rays.
 
         Returns t_hit (inf on a miss), geometry_ids and primitive_ids (uint32, INVALID_ID on a miss),
         primitive_uvs (barycentric weights of vertex 1 and 2), primitive_normals (unit, world space, by the
-        triangle's winding; spheres: outward), each shaped like the rays' leading dimensions. Directions need
+        triangle's winding; spheres: outward; with primitive_normals="interpolated", on meshes added with vertex
+        normals their barycentric mix at the hit, in world space, as Mitsuba shades), each shaped like the rays'
+        leading dimensions. Directions need
         not be unit length; t is in units of the direction's length. A ray with a NaN, an infinity or a zero
         direction misses (as in Open3D and Embree). t, uvs and normals are float32 when the rays are, computed in
         float64 and rounded once (so they equal the float64 answers of the same rays, rounded), else float64.
         """
         rays, directions, nthreads = _durer_form(rays, directions, nthreads)
+        mode = qn.check_mode(primitive_normals)
         batch = self._rays(rays, directions, *t_range(t_min, t_max, tnear, tfar))
         with threads(nthreads):
             out = batches.cast(self._tree(), batch)
+        if mode == "interpolated" and self._corners:
+            qn.interpolate(out, self._corners, self._instances)
         out["geometry_ids"], out["primitive_ids"] = ids(out["geometry_ids"]), ids(out["primitive_ids"])
         return results({key: a.reshape(*batch.lead, *a.shape[1:]) for key, a in out.items()})
 
@@ -415,7 +430,7 @@ class RaycastingScene:
         if self._instances:
             self._tree()
         return {"version": 1, "shapes": self._shapes, "instances": self._instances, "bvh": self._bvh,
-                "distance": self._distance, "nthreads": self._nthreads}
+                "distance": self._distance, "nthreads": self._nthreads, "corners": self._corners}
 
     def __setstate__(self, state: dict) -> None:
         if state.get("version") != 1:
@@ -423,6 +438,7 @@ class RaycastingScene:
         self._shapes, self._instances, self._bvh = state["shapes"], state["instances"], state["bvh"]
         self._distance = state["distance"]
         self._nthreads = state.get("nthreads", 0)
+        self._corners = state.get("corners", {})
 
     def __repr__(self) -> str:
         meshes = sum(1 for s, _ in self._instances if len(self._shapes[s].normals))

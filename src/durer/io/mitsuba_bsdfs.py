@@ -11,8 +11,8 @@ from ..scene.textures import Bitmap, Checker
 from .images import read_texture
 from .mitsuba_tree import Props, call
 
-BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic", "roughplastic",
-         "twosided", "blendbsdf", "mask", "normalmap", "bumpmap")
+BSDFS = ("diffuse", "dielectric", "thindielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
+         "roughplastic", "twosided", "blendbsdf", "mask", "normalmap", "bumpmap")
 TEXTURES = ("bitmap", "checkerboard")
 
 
@@ -163,7 +163,7 @@ def _bsdf(builder, node, depth: int):
         alpha = scalar(builder, node, p, "alpha", 0.1)
     if t == "diffuse":
         out = call(node, B.Diffuse, colour(builder, node, p, "reflectance", 0.5))
-    elif t in ("dielectric", "roughdielectric"):
+    elif t in ("dielectric", "thindielectric", "roughdielectric"):
         args = (p.get("int_ior", 1.5046, "ior"), p.get("ext_ior", 1.000277, "ior"),
                 colour(builder, node, p, "specular_reflectance", 1.0),
                 colour(builder, node, p, "specular_transmittance", 1.0))
@@ -171,7 +171,7 @@ def _bsdf(builder, node, depth: int):
             out = call(node, B.RoughDielectric, *args, scalar(builder, node, p, "alpha_u", alpha),
                        scalar(builder, node, p, "alpha_v", alpha), dist)
         else:
-            out = call(node, B.Dielectric, *args)
+            out = call(node, B.ThinDielectric if t == "thindielectric" else B.Dielectric, *args)
     elif t in ("conductor", "roughconductor"):
         material = p.get("material", None, str)
         eta, k = colour(builder, node, p, "eta", None), colour(builder, node, p, "k", None)

@@ -60,6 +60,7 @@ from ..kernels.path.bsdf import (
     SPEC_WEIGHT,
     TEX_C1,
     TEXTURED,
+    THINDIELECTRIC,
     TROW,
     TWOSIDED,
     WEIGHT,
@@ -79,6 +80,7 @@ from ..scene.bsdfs import (
     RoughDielectric,
     RoughPlastic,
     Surface,
+    ThinDielectric,
     TwoSided,
 )
 from ..scene.materials import PhongMaterial
@@ -169,7 +171,7 @@ class BSDFTable:
             blend = self.kind == BLEND
             textured[blend] |= textured[self.child0[blend]] | textured[self.child1[blend]]
             P[:, TEXTURED] = textured
-            smooth = ~np.isin(self.kind, (DIELECTRIC, CONDUCTOR, BLACK))
+            smooth = ~np.isin(self.kind, (DIELECTRIC, THINDIELECTRIC, CONDUCTOR, BLACK))
             phong = self.kind == PHONG
             smooth[phong] = (self.c1[phong].max(1) > 0) | (self.c2[phong].max(1) > 0)
             smooth[blend] = smooth[self.child0[blend]] | smooth[self.child1[blend]]
@@ -213,6 +215,9 @@ def _row(m, textures: TextureTable) -> dict:
     elif isinstance(m, RoughDielectric):
         r.update(kind=ROUGHDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
                  eta=m.int_ior / m.ext_ior, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")
+    elif isinstance(m, ThinDielectric):
+        r.update(kind=THINDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
+                 eta=m.int_ior / m.ext_ior)
     elif isinstance(m, Dielectric):
         r.update(kind=DIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance, eta=m.int_ior / m.ext_ior)
     elif isinstance(m, Conductor):

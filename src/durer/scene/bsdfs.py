@@ -129,6 +129,12 @@ class Dielectric:
 
 
 @dataclass
+class ThinDielectric(Dielectric):
+    """A thin glass pane (Mitsuba's `thindielectric`): light reflects with the slab's summed Fresnel reflectance
+    or passes straight through, unbent; seen alike from both sides."""
+
+
+@dataclass
 class Microfacet:
     """What the rough conductor and the rough dielectric share: anisotropic roughness (a number or a texture) and the
     microfacet distribution, checked once here after the smooth BSDF's own checks (a base listed first: the smooth
@@ -292,8 +298,8 @@ def _unit_number(v, what: str) -> float:
     return x
 
 
-BSDF = (Diffuse | Dielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic | TwoSided | Blend
-        | Mask | NormalMap | BumpMap)
+BSDF = (Diffuse | Dielectric | ThinDielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic
+        | TwoSided | Blend | Mask | NormalMap | BumpMap)
 
 
 @dataclass

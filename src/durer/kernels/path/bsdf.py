@@ -25,6 +25,7 @@ from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
 
 DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK, ROUGHDIELECTRIC = range(9)
 BLEND = 9  # Mitsuba's blendbsdf: (1 - weight) CHILD0 + weight CHILD1
+THINDIELECTRIC = 10
 # columns of the packed table: kind, flags, four colours (3 each), scalars, emission
 KIND, TWOSIDED, C1, C2, C3, C4, ETA, AU, AV, EXPONENT, SPEC_WEIGHT, FDR_INT, NONLINEAR, FLIP, EMISSION, SMOOTH = (
     0, 1, 2, 5, 8, 11, 14, 15, 16, 17, 18, 19, 20, 21, 22, 25)
@@ -36,6 +37,14 @@ BECKMANN = 26  # rough BSDFs: 1 for Beckmann microfacets, 0 for GGX
 TROW, OPACITY, WEIGHT, CHILD0, CHILD1, TEXTURED = 27, 28, 29, 30, 31, 32
 TEX_C1, TEX_C2, TEX_AU, TEX_AV, TEX_OPACITY, TEX_WEIGHT, TEX_EMISSION, TEX_NORMAL, TEX_BUMP, BUMP_SCALE = range(33, 43)
 COLUMNS = 43
+
+
+@nb.njit(**JIT, inline="always")
+def anisotropic(P, s):
+    """Does slot s's BSDF depend on the tangent's direction (alpha_u != alpha_v)? Only these are shaded in Mitsuba's
+    dp/du frame (warps.tangent_frame3); the rest keep frame3(n), whatever the tangent, so their images stay."""
+    k = P[s, KIND]
+    return (k == ROUGHCONDUCTOR or k == ROUGHDIELECTRIC) and P[s, AU] != P[s, AV]
 
 
 @nb.njit(**JIT, inline="always")
@@ -219,7 +228,7 @@ def leaf_eval(P, T, s, wi, wo):
         return _phong_eval(P, s, wi, wo)
     if k == ROUGHDIELECTRIC:
         return _roughdielectric_eval(P, s, wi, wo)
-    return 0.0, 0.0, 0.0, 0.0  # dielectric, conductor (delta lobes only), black
+    return 0.0, 0.0, 0.0, 0.0  # dielectric, thin dielectric, conductor (delta lobes only), black
 
 
 @nb.njit(**JIT, inline="always")
@@ -239,6 +248,20 @@ def _dielectric_sample(P, s, wi, u1):
     e2 = eta_ti * eta_ti
     return ((-eta_ti * wx, -eta_ti * wy, cos_t), (P[s, C2] * e2, P[s, C2 + 1] * e2, P[s, C2 + 2] * e2),
             1.0 - f, True, eta_it)
+
+
+@nb.njit(**JIT)
+def _thindielectric_sample(P, s, wi, u1):
+    """Mitsuba's thindielectric, from either side: a slab's reflectance summed over its internal bounces,
+    R' = R + T^2 R / (1 - R^2) = 2 R / (1 + R) with R the Fresnel reflectance at |cos(theta_i)|; reflect with
+    probability R', else pass straight through (no refraction, no radiance scaling)."""
+    wx, wy, wz = wi
+    r = fresnel1(abs(wz), P[s, ETA])[0]
+    if r < 1.0:
+        r *= 2.0 / (1.0 + r)
+    if u1 <= r:
+        return (-wx, -wy, wz), (P[s, C1], P[s, C1 + 1], P[s, C1 + 2]), r, True, 1.0
+    return (-wx, -wy, -wz), (P[s, C2], P[s, C2 + 1], P[s, C2 + 2]), 1.0 - r, True, 1.0
 
 
 @nb.njit(**JIT)
@@ -375,6 +398,8 @@ def leaf_sample(P, T, s, wi, u1, u20, u21):
         wo, w, pdf, delta, eta = _phong_sample(P, s, wi, u1, u20, u21)
     elif k == ROUGHDIELECTRIC:
         wo, w, pdf, delta, eta = _roughdielectric_sample(P, s, wi, u1, u20, u21)
+    elif k == THINDIELECTRIC:
+        wo, w, pdf, delta, eta = _thindielectric_sample(P, s, wi, u1)
     else:
         wo, w, pdf, delta, eta = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False, 1.0
     if flip:

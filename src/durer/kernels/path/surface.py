@@ -70,28 +70,54 @@ def surface_at(px, py, pz, k, j, tris, tri_mat, w2o, center, radius, normal_matr
 @nb.njit(**JIT)
 def uv_at(px, py, pz, k, j, tris, tri_uv, w2o, center, radius):
     """Texture coordinates and their derivatives at point p of a hit of kind k on primitive j: (u, v, dp/du (3),
-    dp/dv (3)), as Mitsuba computes them. Meshes: barycentric UVs, dp/du and dp/dv from the triangle's edges and UV
-    differences (zeros where the mesh has no UVs or they are degenerate). Analytic shapes (kind SPHERE, the shape
-    code in `radius`): Mitsuba's parametrisation of the object-space point, spheres (phi / 2 pi, theta / pi), disks
-    (r, phi / 2 pi), cylinders (phi / 2 pi, z), phi = atan2(y, x) in [0, 2 pi), with zero derivatives. Planes: zeros."""
+    dp/dv (3)), as Mitsuba's shapes define them (dp/du also orients anisotropic BSDFs: warps.tangent_frame3).
+    Triangles: barycentric UVs, dp/du and dp/dv from the edges and UV differences (zeros where the UVs are
+    degenerate); a triangle without UVs (all zero, or fewer rows than triangles) has Mitsuba's barycentric ones,
+    (b1, b2), so dp/du and dp/dv are its edges. Analytic shapes (kind SPHERE, the shape code in `radius`):
+    Mitsuba's parametrisations of the object-space point q, phi = atan2(qy, qx) in [0, 2 pi): spheres
+    (phi / 2 pi, theta / pi), disks (r, phi / 2 pi), cylinders (phi / 2 pi, qz), derivatives taken to world space.
+    Planes and misses: zeros."""
     if k == SPHERE:
-        qx = w2o[j, 0, 0] * px + w2o[j, 0, 1] * py + w2o[j, 0, 2] * pz + w2o[j, 0, 3]
-        qy = w2o[j, 1, 0] * px + w2o[j, 1, 1] * py + w2o[j, 1, 2] * pz + w2o[j, 1, 3]
-        qz = w2o[j, 2, 0] * px + w2o[j, 2, 1] * py + w2o[j, 2, 2] * pz + w2o[j, 2, 3]
+        m = w2o[j]
+        qx = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+        qy = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+        qz = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
         code = radius[j]
         if code > 0:
             qx, qy, qz = qx - center[j, 0], qy - center[j, 1], qz - center[j, 2]
         phi = math.atan2(qy, qx)
         if phi < 0:
             phi += 2.0 * math.pi
-        phi /= 2.0 * math.pi
+        c, s = math.cos(phi), math.sin(phi)
+        two_pi = 2.0 * math.pi
         if code == DISK_CODE:
-            return math.sqrt(qx * qx + qy * qy), phi, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        if code == CYLINDER_CODE:
-            return phi, qz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        r = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-300)
-        return phi, math.acos(min(max(qz / r, -1.0), 1.0)) / math.pi, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    if k != TRIANGLE or j >= tri_uv.shape[0]:
+            r = math.sqrt(qx * qx + qy * qy)
+            u, v = r, phi / two_pi
+            du, dv = (c, s, 0.0), (-qy * two_pi, qx * two_pi, 0.0)
+        elif code == CYLINDER_CODE:
+            u, v = phi / two_pi, qz
+            du, dv = (-qy * two_pi, qx * two_pi, 0.0), (0.0, 0.0, 1.0)
+        else:
+            r = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-300)
+            theta = math.acos(min(max(qz / r, -1.0), 1.0))
+            u, v = phi / two_pi, theta / math.pi
+            du = (-qy * two_pi, qx * two_pi, 0.0)
+            dv = (qz * c * math.pi, qz * s * math.pi, -r * math.sin(theta) * math.pi)
+        # object -> world is the inverse of w2o's linear part: its adjugate over its determinant
+        c00, c01, c02 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1], m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2], \
+            m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
+        c10, c11, c12 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2], m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0], \
+            m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
+        c20, c21, c22 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0], m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1], \
+            m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+        det = m[0, 0] * c00 + m[0, 1] * c10 + m[0, 2] * c20
+        if det == 0:
+            return u, v, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        inv = 1.0 / det
+        return (u, v, (c00 * du[0] + c01 * du[1] + c02 * du[2]) * inv, (c10 * du[0] + c11 * du[1] + c12 * du[2]) * inv,
+                (c20 * du[0] + c21 * du[1] + c22 * du[2]) * inv, (c00 * dv[0] + c01 * dv[1] + c02 * dv[2]) * inv,
+                (c10 * dv[0] + c11 * dv[1] + c12 * dv[2]) * inv, (c20 * dv[0] + c21 * dv[1] + c22 * dv[2]) * inv)
+    if k != TRIANGLE:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     ax, ay, az = tris[j, 1, 0] - tris[j, 0, 0], tris[j, 1, 1] - tris[j, 0, 1], tris[j, 1, 2] - tris[j, 0, 2]
     bx, by, bz = tris[j, 2, 0] - tris[j, 0, 0], tris[j, 2, 1] - tris[j, 0, 1], tris[j, 2, 2] - tris[j, 0, 2]
@@ -102,6 +128,9 @@ def uv_at(px, py, pz, k, j, tris, tri_uv, w2o, center, radius):
     b1 = b2 = 0.0
     if det > 0:
         b1, b2 = (d22 * q1 - d12 * q2) / det, (d11 * q2 - d12 * q1) / det
+    if j >= tri_uv.shape[0] or (tri_uv[j, 0, 0] == 0 and tri_uv[j, 0, 1] == 0 and tri_uv[j, 1, 0] == 0
+                                and tri_uv[j, 1, 1] == 0 and tri_uv[j, 2, 0] == 0 and tri_uv[j, 2, 1] == 0):
+        return b1, b2, ax, ay, az, bx, by, bz  # no UVs: Mitsuba's barycentric ones
     b0 = 1.0 - b1 - b2
     u = b0 * tri_uv[j, 0, 0] + b1 * tri_uv[j, 1, 0] + b2 * tri_uv[j, 2, 0]
     v = b0 * tri_uv[j, 0, 1] + b1 * tri_uv[j, 1, 1] + b2 * tri_uv[j, 2, 1]

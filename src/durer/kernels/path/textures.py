@@ -39,8 +39,9 @@ from .bsdf import (
     TEX_OPACITY,
     TEX_WEIGHT,
     WEIGHT,
+    anisotropic,
 )
-from .warps import frame3
+from .warps import frame3, tangent_frame3
 
 BITMAP, CHECKER = 0, 1
 REPEAT, MIRROR, CLAMP = 0, 1, 2
@@ -209,7 +210,7 @@ def shading_frame(P, s, TI, TD, n, g, surf):
     normal g (both on the side the BSDF uses) and surf = (u, v, dp/du, dp/dv): the plain frame3(n), or the frame of
     Mitsuba's normalmap (normal 2 rgb - 1 in the frame of dp/du and n; tangent dp/du made orthogonal to it) or
     bumpmap (dp/du and dp/dv tilted along n by the height's gradient times the scale; normal their cross product,
-    turned to g's side)."""
+    turned to g's side); anisotropic BSDFs without a map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
     nx, ny, nz = n
     tn, tb = int(P[s, TEX_NORMAL]), int(P[s, TEX_BUMP])
     u, v, dux, duy, duz, dvx, dvy, dvz = surf
@@ -240,5 +241,8 @@ def shading_frame(P, s, TI, TD, n, g, surf):
             if ok:
                 return ((mx, my, mz), (sx, sy, sz), (my * sz - mz * sy, mz * sx - mx * sz, mx * sy - my * sx), True)
             return (mx, my, mz), frame3(mx, my, mz)[0], frame3(mx, my, mz)[1], True
-    ts, tt = frame3(nx, ny, nz)
+    if anisotropic(P, s):  # Mitsuba's dp/du frame orients anisotropic roughness; the rest keep frame3(n)
+        ts, tt = tangent_frame3(nx, ny, nz, dux, duy, duz, g[0], g[1], g[2])
+    else:
+        ts, tt = frame3(nx, ny, nz)
     return (nx, ny, nz), ts, tt, False

@@ -28,6 +28,23 @@ def frame3(nx, ny, nz):
 
 
 @nb.njit(**JIT, inline="always")
+def tangent_frame3(nx, ny, nz, ux, uy, uz, gx, gy, gz):
+    """Mitsuba's shading frame (SurfaceInteraction::initialize_sh_frame): the tangent dp/du (ux, uy, uz) made
+    orthogonal to the unit shading normal n, then t = n x s. Where dp/du is zero (no UVs) Mitsuba takes the
+    geometric normal g's coordinate system (frame3(g)'s first tangent) as dp/du; where that too is parallel to n,
+    frame3(n). Orients anisotropic BSDFs as Mitsuba does; isotropic ones keep frame3(n)."""
+    if ux == 0.0 and uy == 0.0 and uz == 0.0:
+        ux, uy, uz = frame3(gx, gy, gz)[0]
+    d = nx * ux + ny * uy + nz * uz
+    sx, sy, sz = ux - d * nx, uy - d * ny, uz - d * nz
+    ln = math.sqrt(sx * sx + sy * sy + sz * sz)
+    if not ln > 1e-12 * math.sqrt(ux * ux + uy * uy + uz * uz):
+        return frame3(nx, ny, nz)
+    sx, sy, sz = sx / ln, sy / ln, sz / ln
+    return (sx, sy, sz), (ny * sz - nz * sy, nz * sx - nx * sz, nx * sy - ny * sx)
+
+
+@nb.njit(**JIT, inline="always")
 def to_local3(vx, vy, vz, s, t, nx, ny, nz):
     return (vx * s[0] + vy * s[1] + vz * s[2], vx * t[0] + vy * t[1] + vz * t[2], vx * nx + vy * ny + vz * nz)
 

@@ -15,7 +15,7 @@ import numpy as np
 from ..bvh.single import blas_any, blas_closest, planes_closest
 from ..common import JIT, MISS, PLANE
 from .bounce import shade_path
-from .bsdf import COLUMNS, TEXTURED
+from .bsdf import COLUMNS, TEXTURED, anisotropic
 from .qmc import mix64
 from .surface import surface_at, uv_at
 
@@ -54,7 +54,8 @@ def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, 
     live: the row of each live path in the wavefront's arrays; o, d (n, 3) its ray, thr (n, 3) throughput, eta
     (n,), prev (n, 5) as in shade_bounce, all overwritten with the next bounce's; path = (sample, keys, pixel
     keys) (n,); accel = the one-level BVH's arrays (BVHAccelerator._args: bounds, child, leaf slots and
-    triangles, spheres, planes, stack size); surfaces = CompiledScene.flat's arrays as hit_surfaces takes them;
+    triangles, spheres, planes, stack size); surfaces = CompiledScene.flat's arrays as hit_surfaces takes them
+    (corner UVs last: uv_at);
     miss = (radiance r, g, b, light pdf, is an emitter) of every escaping ray; bsdf, lights, env and scalars as
     shade_bounce's; t_min of the rays. Adds found light to L (n, 3) and features to aux as shade_path; on bounce 0
     writes each path's first hit to first = (t (n,), geometric normal (n, 3)); alive[k] says whether path live[k]
@@ -86,7 +87,7 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     gx, gy, gz, sx, sy, sz, s = surface_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_mat, w2o,
                                            center, radius, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
     surf = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    if s >= 0 and bsdf[0][s, TEXTURED] != 0:
+    if s >= 0 and (bsdf[0][s, TEXTURED] != 0 or anisotropic(bsdf[0], s)):
         surf = uv_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_uv, w2o, center, radius)
     if scalars[0] == 0:
         first_t[i] = t
