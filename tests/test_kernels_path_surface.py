@@ -37,9 +37,10 @@ def test_hit_surfaces_match_the_numpy_definitions():
                  flat.sphere_world_to_object, flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix,
                  flat.sphere_material, flat.plane_normal, flat.plane_material, np.zeros((0, 3, 3)), np.zeros((0, 3, 2)),
                  p, ng, ns, uvd, slot, 0, 4000)
-    # no mesh UVs: Mitsuba's barycentric ones (dp/du, dp/dv the edges); spheres (phi / 2 pi, theta / pi); planes none
+    # no mesh UVs: (u, v) = 0 and Mitsuba's barycentric derivatives (the edges); spheres (phi / 2 pi, theta / pi);
+    # planes none
     on_sphere, on_tri = hits.kind == 2, hits.kind == 1
-    assert not uvd[~(on_sphere | on_tri)].any()
+    assert not uvd[~(on_sphere | on_tri)].any() and not uvd[on_tri, :2].any()
     np.testing.assert_allclose(uvd[on_sphere, :2], cs.analytic_uv(hits.prim[on_sphere], p[on_sphere]), atol=1e-12)
     tri = flat.triangles.reshape(-1, 3, 3)[hits.prim[on_tri]]
     np.testing.assert_allclose(uvd[on_tri, 2:5], tri[:, 1] - tri[:, 0], atol=1e-12)

@@ -72,8 +72,9 @@ def uv_at(px, py, pz, k, j, tris, tri_uv, w2o, center, radius):
     """Texture coordinates and their derivatives at point p of a hit of kind k on primitive j: (u, v, dp/du (3),
     dp/dv (3)), as Mitsuba's shapes define them (dp/du also orients anisotropic BSDFs: warps.tangent_frame3).
     Triangles: barycentric UVs, dp/du and dp/dv from the edges and UV differences (zeros where the UVs are
-    degenerate); a triangle without UVs (all zero, or fewer rows than triangles) has Mitsuba's barycentric ones,
-    (b1, b2), so dp/du and dp/dv are its edges. Analytic shapes (kind SPHERE, the shape code in `radius`):
+    degenerate); a triangle without UVs (all zero, or fewer rows than triangles) has (u, v) = 0 (what a texture
+    reads on Mitsuba's sdfgrid; textures on other meshes without UVs are refused at load) and Mitsuba's barycentric
+    derivatives, its edges (Mitsuba's UVs are then (b1, b2)), which orient anisotropic BSDFs as Mitsuba's do. Analytic shapes (kind SPHERE, the shape code in `radius`):
     Mitsuba's parametrisations of the object-space point q, phi = atan2(qy, qx) in [0, 2 pi): spheres
     (phi / 2 pi, theta / pi), disks (r, phi / 2 pi), cylinders (phi / 2 pi, qz), derivatives taken to world space.
     Planes and misses: zeros."""
@@ -130,7 +131,7 @@ def uv_at(px, py, pz, k, j, tris, tri_uv, w2o, center, radius):
         b1, b2 = (d22 * q1 - d12 * q2) / det, (d11 * q2 - d12 * q1) / det
     if j >= tri_uv.shape[0] or (tri_uv[j, 0, 0] == 0 and tri_uv[j, 0, 1] == 0 and tri_uv[j, 1, 0] == 0
                                 and tri_uv[j, 1, 1] == 0 and tri_uv[j, 2, 0] == 0 and tri_uv[j, 2, 1] == 0):
-        return b1, b2, ax, ay, az, bx, by, bz  # no UVs: Mitsuba's barycentric ones
+        return 0.0, 0.0, ax, ay, az, bx, by, bz  # no UVs: Mitsuba's barycentric derivatives, (u, v) = 0
     b0 = 1.0 - b1 - b2
     u = b0 * tri_uv[j, 0, 0] + b1 * tri_uv[j, 1, 0] + b2 * tri_uv[j, 2, 0]
     v = b0 * tri_uv[j, 0, 1] + b1 * tri_uv[j, 1, 1] + b2 * tri_uv[j, 2, 1]
