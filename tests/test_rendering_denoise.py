@@ -12,7 +12,7 @@ import pytest
 import durer
 from durer.cli import main
 from durer.errors import MissingDependency
-from durer.rendering.denoise import clean_features, refilter
+from durer.rendering.denoise import clean_features
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 RED, GREEN, WHITE = (0.570068, 0.0430135, 0.0443706), (0.105421, 0.37798, 0.076425), (0.885809, 0.698859, 0.666422)
@@ -184,47 +184,3 @@ def test_denoise_quality_is_one_of_oidns_presets(cornell):
     with pytest.raises(ValueError, match="unknown denoise quality 'ultra'"):
         durer.render(cornell, 8, 8, denoise=True, denoise_quality="ultra")
     assert main(["render", str(EXAMPLES / "cornell_box.xml"), "-o", "x.png", "--denoise-quality", "ultra"]) == 2
-
-
-def test_refilter_gives_the_filters_mean_over_each_neighbour_pixel():
-    """One bright pixel, reconstructed with Mitsuba's default gaussian (sigma 0.5, support one pixel): each
-    neighbour gets the gaussian's mean over its square, a product of erf differences, normalised over the 3 x 3;
-    a constant image stays constant up to the border (cropped as the film is); the one-pixel box changes nothing."""
-    from math import erf, sqrt
-
-    def cell(d: int) -> float:  # mean of exp(-x^2 / (2 sigma^2)) over [d - 1/2, d + 1/2], sigma = 1/2
-        return (erf((d + 0.5) / (0.5 * sqrt(2))) - erf((d - 0.5) / (0.5 * sqrt(2)))) / 2
-
-    image = np.zeros((9, 9, 3))
-    image[4, 4] = 1.0
-    out = refilter(image, "gaussian", 0.5)
-    norm = (cell(0) + 2 * cell(1)) ** 2
-    for dy, dx in np.ndindex(3, 3):
-        expected = cell(dy - 1) * cell(dx - 1) / norm
-        assert out[3 + dy, 3 + dx] == pytest.approx([expected] * 3, rel=2e-3)  # 16 x 16 points a pixel
-    assert out[4, 6].max() == 0 and out.sum() == pytest.approx(3.0, rel=2e-3)
-    flat = np.full((5, 7, 3), 0.25, np.float32)
-    for name, radius in (("gaussian", 0.5), ("tent", 1.0), ("tent", 2.5), ("box", 1.5)):
-        assert refilter(flat, name, radius) == pytest.approx(flat, rel=1e-6)
-    assert refilter(image, "box", 0.5) is image
-
-
-def test_a_denoised_render_takes_the_scenes_filter(monkeypatch, cornell):
-    """The film gives up the scene's filter for the denoiser's box and OIDN's output gets it back: what OIDN
-    returns is refiltered with the scene's (filter, radius)."""
-    pytest.importorskip("pyoidn", reason="the denoise extra (pyoidn) is not installed")
-    import pyoidn
-
-    from durer.rendering import denoise as denoise_module
-
-    seen = {}
-    real = pyoidn.denoise
-
-    def spy(color, *args, **kwargs):
-        seen["out"] = real(color, *args, **kwargs)
-        return seen["out"]
-
-    monkeypatch.setattr(pyoidn, "denoise", spy)
-    result = durer.render(cornell, 16, 16, samples=2, denoise=True, filter="gaussian", filter_radius=0.5)
-    assert np.allclose(result.color, denoise_module.refilter(seen["out"], "gaussian", 0.5))
-    assert not np.allclose(result.color, seen["out"])

@@ -47,9 +47,6 @@ class RenderOptions:
     denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs, box filter)
     denoise_quality: str = "high"  # high | balanced | fast: OIDN's preset (time against error: benchmarks/README.md)
     aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
-    # set by denoise's resolve (rendering/renderer.py), not by users: the scene's (filter, radius), which the film
-    # gives up for the denoiser's box and rendering/denoise.refilter then applies to OIDN's output
-    denoise_filter: tuple[str, float] | None = None
 
     def filter_reach(self) -> float:
         """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent) or 2 sigma (gaussian)."""

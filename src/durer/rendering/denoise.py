@@ -10,9 +10,7 @@ denoised by its own RT filter first, and the colour filter is then told they are
 A denoised render's samples are filtered by a one-pixel box (PIXEL_FILTER), whatever the scene asks for: a wider
 reconstruction filter spreads each sample over several pixels, and OIDN takes the correlated noise for detail (the
 roulette scene of ../shared, filtered by its tent: 0.0039-0.0050 RMSE at 16 spp, by the box: 0.0030-0.0035;
-benchmarks/README.md). OIDN's output is then reconstructed with the scene's own filter (refilter), so a denoised
-render estimates the image the scene asks for, not a sharper one (Mitsuba's default gaussian: the median error of
-the gaussian and tent scenes of ../shared fell by 9%).
+benchmarks/README.md).
 """
 
 from __future__ import annotations
@@ -23,17 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MissingDependency
-from ..options import RenderOptions
 from ..scene.bsdfs import Dielectric, Surface, TwoSided
 from ..scene.materials import PhongMaterial
 from ..scene.textures import Texture
-from .film import filter_weight, support_radius
 
 INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]"'
 QUALITY = "high"  # OIDN's own default preset; RenderOptions.denoise_quality picks another (benchmarks/README.md)
 _QUALITY_CODES = {"high": 6, "balanced": 5, "fast": 4}  # OIDN_QUALITY_HIGH, _BALANCED, _FAST
 PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of a denoised render (module docstring)
-_CELL = 16  # refilter's points per pixel side for a filter's mean over a pixel
 
 
 def require_oidn():
@@ -78,10 +73,9 @@ def clean_features(materials: list, path: bool) -> bool:
 
 
 def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean: bool = True,
-            quality: str = QUALITY, filter: tuple[str, float] | None = None) -> Denoised:
-    """OIDN's RT filter on linear HDR colour (H, W, 3) with albedo and normal features (H, W, 3), all box-filtered.
-    `clean` says the features are noise-free (else each is prefiltered first); `filter` = (name, radius), the
-    scene's reconstruction filter, applied to the output (refilter). Raises MissingDependency without pyoidn."""
+            quality: str = QUALITY) -> Denoised:
+    """OIDN's RT filter on linear HDR colour (H, W, 3) with albedo and normal features (H, W, 3). `clean` says the
+    features are noise-free (else each is prefiltered first). Raises MissingDependency without pyoidn."""
     oidn = require_oidn()
     start = time.perf_counter()
     color = _image(np.maximum(np.nan_to_num(color, posinf=0.0), 0.0))  # OIDN's HDR input: finite, non-negative
@@ -90,36 +84,7 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean:
     if not clean:
         albedo, normal = _prefilter(oidn, albedo, normal, quality)
     out = oidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality)
-    if filter is not None:
-        out = refilter(out, *filter)
     return Denoised(np.asarray(out, dtype=np.float32), time.perf_counter() - start)
-
-
-def refilter(image: np.ndarray, filter: str, radius: float) -> np.ndarray:
-    """A box-filtered image (H, W, C) reconstructed with another filter (film.py's box, tent or gaussian of that
-    radius): each pixel the weighted average of its neighbours within the filter's support, each weighed by the
-    filter's mean over that neighbour's square, the film's expected weight of its samples (exact where the image
-    is constant over each pixel), cropped at the border as the film is. The one-pixel box returns the image."""
-    options = RenderOptions(filter=filter, filter_radius=radius)
-    reach = support_radius(options)
-    if filter == "box" and radius == PIXEL_FILTER["filter_radius"]:
-        return image
-    u = (np.arange(_CELL) + 0.5) / _CELL - 0.5  # points across one pixel, for the filter's mean over it
-    offsets = np.arange(-reach, reach + 1)
-    dy = (offsets[:, None, None, None] + u[None, None, :, None])
-    dx = (offsets[None, :, None, None] + u[None, None, None, :])
-    kernel = filter_weight(options, dx, dy).mean(axis=(2, 3))
-    h, w = image.shape[:2]
-    padded = np.zeros((h + 2 * reach, w + 2 * reach) + image.shape[2:])
-    padded[reach:reach + h, reach:reach + w] = image
-    inside = np.zeros((h + 2 * reach, w + 2 * reach))
-    inside[reach:reach + h, reach:reach + w] = 1.0
-    total, weight = np.zeros(image.shape), np.zeros((h, w))
-    for i, j in np.ndindex(kernel.shape):
-        if kernel[i, j] > 0:
-            total += kernel[i, j] * padded[i:i + h, j:j + w]
-            weight += kernel[i, j] * inside[i:i + h, j:j + w]
-    return (total / weight.reshape(weight.shape + (1,) * (image.ndim - 2))).astype(image.dtype)
 
 
 def _image(a: np.ndarray) -> np.ndarray:

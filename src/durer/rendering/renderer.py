@@ -50,26 +50,24 @@ def resolve(scene: Scene, width: int | None = None, height: int | None = None, o
             **kwargs) -> tuple[int, int, RenderOptions]:
     """render()'s arguments checked over the scene's own defaults, memory included: (width, height, options);
     ValueError naming what is wrong. With denoise, pyoidn is required here (before anything is rendered) and the
-    samples get the denoiser's one-pixel box filter (the scene's is kept in denoise_filter for OIDN's output).
-    Shared with durer.dask.render and the frames command, so they render what render() renders."""
+    samples get the denoiser's one-pixel box filter. Shared with durer.dask.render and the frames command, so
+    they render what render() renders."""
     width, height, options = resolve_arguments(scene, width, height, options, kwargs)
     check_size(width, height, options.samples, options)
     if options.denoise:
         from .denoise import PIXEL_FILTER, require_oidn
 
         require_oidn()
-        options = replace(options, **PIXEL_FILTER, denoise_filter=(options.filter, options.filter_radius))
+        options = replace(options, **PIXEL_FILTER)
     return width, height, options
 
 
 def denoise_result(result: RenderResult, scene: Scene, options: RenderOptions) -> RenderResult:
-    """Replace result.color by OIDN's denoised colour (with the albedo and normal features), reconstructed with
-    the scene's filter (denoise.refilter); in place."""
+    """Replace result.color by OIDN's denoised colour (with the albedo and normal features); in place."""
     from .denoise import clean_features, denoise
 
     done = denoise(result.color, result.albedo, result.shading_normals,
-                   clean=clean_features(scene.materials, options.integrator == "path"), quality=options.denoise_quality,
-                   filter=options.denoise_filter)
+                   clean=clean_features(scene.materials, options.integrator == "path"), quality=options.denoise_quality)
     result.color, result.denoise_seconds = done.color, done.seconds
     return result
 
