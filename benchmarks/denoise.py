@@ -9,9 +9,11 @@ by a few firefly pixels), with the emitters' own pixels left out (every pixel wh
 max_depth=1 render sees an emitter). Targets: denoised at 16 spp below undenoised at 128 spp on the Cornell box and
 on the median scene of the set (the ratio of the two errors, median over the set, the upper one for an even count);
 the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU time, as the machine is shared).
---picture writes the side-by-side image of the README.
+--picture writes the side-by-side image of the README. --noisy picks the undenoised sample counts (the set of 15
+scenes at every count and a 4096-spp reference is hours on a loaded 2-core machine).
 
-    PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--picture PNG]
+    PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--noisy 16 128]
+        [--quality high balanced fast] [--picture PNG]
 """
 
 from __future__ import annotations
@@ -113,10 +115,32 @@ def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualitie
                 seconds={q: float(np.mean(v)) for q, v in seconds.items()}, clean=clean)
 
 
+def oidn_threads(r, quality: str, threads: int) -> None:
+    """OIDN's RT filter on r's colour and features (as denoise() with clean features) on a device of its own
+    limited to `threads` threads (0: OIDN's default, every core), to time its thread count against the render's."""
+    import pyoidn
+
+    images = [np.ascontiguousarray(a, dtype=np.float32) for a in
+              (np.maximum(r.color, 0.0), np.clip(r.albedo, 0.0, 1.0), np.clip(r.shading_normals, -1.0, 1.0))]
+    out = np.empty_like(images[0])
+    with pyoidn.Device() as device:
+        device.set_int("numThreads", threads)
+        device.commit()
+        with pyoidn.Filter(device, pyoidn.OIDN_FILTER_TYPE_RT) as flt:
+            for name, image in zip(("color", "albedo", "normal", "output"), images + [out], strict=True):
+                flt.set_image(name, image, pyoidn.OIDN_FORMAT_FLOAT3)
+            flt.set_bool("hdr", True)
+            flt.set_bool("cleanAux", True)
+            flt.set_quality({"high": 6, "balanced": 5, "fast": 4}[quality])
+            flt.commit()
+            flt.execute()
+
+
 def timing(qualities, res: int = 512, spp: int = 16) -> dict:
-    """A 16-spp render of the Cornell box at 512 x 512 without features, with them, and OIDN on it at each quality:
-    (wall, CPU) seconds, the CPU time of every thread of the process (the share that stays put on a shared machine),
-    best of two each after a warm-up."""
+    """A 16-spp render of the Cornell box at 512 x 512 without features, with them, and OIDN on it at each quality
+    (through denoise(), and on devices of 1 and 2 threads, weights loaded and filter built included): (wall, CPU)
+    seconds, the CPU time of every thread of the process (the share that stays put on a shared machine), best of two
+    each after a warm-up."""
     scene = durer.load(CORNELL)
     r = durer.render(scene, 32, 32, samples=2, aovs=True)  # compile
     for q in qualities:
@@ -128,12 +152,15 @@ def timing(qualities, res: int = 512, spp: int = 16) -> dict:
         return out, (time.perf_counter() - start, time.process_time() - cpu)
 
     plain, featured, oidn = [], [], {q: [] for q in qualities}
+    oidn.update({(q, n): [] for q in qualities for n in (1, 2)})
     for _ in range(2):
         plain.append(timed(lambda: durer.render(scene, res, res, samples=spp))[1])
         r, t = timed(lambda: durer.render(scene, res, res, samples=spp, aovs=True))
         featured.append(t)
         for q in qualities:
             oidn[q].append(timed(lambda q=q, r=r: denoise(r.color, r.albedo, r.shading_normals, quality=q))[1])
+            for n in (1, 2):
+                oidn[q, n].append(timed(lambda q=q, r=r, n=n: oidn_threads(r, q, n))[1])
 
     def best(ts):
         return min(t[0] for t in ts), min(t[1] for t in ts)
@@ -164,13 +191,15 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="64 px, 1024-spp reference, noisy up to 256 spp")
     ap.add_argument("--quality", nargs="+", default=[QUALITY], choices=("fast", "balanced", "high"),
                     help=f"OIDN qualities to measure (default: durer's, {QUALITY})")
+    ap.add_argument("--noisy", nargs="+", type=int, default=list(NOISY_SPP), metavar="SPP",
+                    help="undenoised sample counts (default: 16 32 64 128 256 512 1024; 128 is the target's)")
     ap.add_argument("--picture", type=Path, help="also write the README's side-by-side PNG here")
     ap.add_argument("--no-timing", action="store_true", help="skip the 512 x 512 timing")
     ap.add_argument("--timing-only", action="store_true", help="only the 512 x 512 timing (and --picture)")
     a = ap.parse_args()
-    res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, NOISY_SPP, a.quality
+    res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, tuple(sorted(set(a.noisy))), a.quality
     if a.quick:
-        res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in NOISY_SPP if n <= 256)
+        res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in noisy_spp if n <= 256)
     if a.timing_only:
         found, skipped = [], []
     else:
@@ -213,6 +242,10 @@ def main() -> None:
             print(f"Target ({q}): denoiser under 10% of the render: OIDN {ow:.2f} s wall = {100 * ow / pw:.1f}%, "
                   f"{oc:.2f} s CPU = {100 * oc / pc:.1f}% ({'met' if oc / pc < 0.1 else 'NOT met'} by CPU time); "
                   f"with the features' cost {100 * (fc + oc - pc) / pc:.1f}% CPU")
+            for n in (1, 2):
+                ow, oc = t["oidn"][q, n]
+                print(f"    OIDN {q} on {n} thread{'s' * (n > 1)}: {ow:.2f} s wall = {100 * ow / pw:.1f}%, {oc:.2f} s "
+                      f"CPU = {100 * oc / pc:.1f}%")
     if a.picture:
         picture(a.picture)
 
