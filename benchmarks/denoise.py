@@ -13,7 +13,7 @@ the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU 
 scenes at every count and a 4096-spp reference is hours on a loaded 2-core machine).
 
     PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--noisy 16 128]
-        [--quality high balanced fast] [--picture PNG]
+        [--quality high balanced fast] [--only TEXT ...] [--picture PNG]
 """
 
 from __future__ import annotations
@@ -193,6 +193,7 @@ def main() -> None:
                     help=f"OIDN qualities to measure (default: durer's, {QUALITY})")
     ap.add_argument("--noisy", nargs="+", type=int, default=list(NOISY_SPP), metavar="SPP",
                     help="undenoised sample counts (default: 16 32 64 128 256 512 1024; 128 is the target's)")
+    ap.add_argument("--only", nargs="+", metavar="TEXT", help="only the scenes whose path contains one of these")
     ap.add_argument("--picture", type=Path, help="also write the README's side-by-side PNG here")
     ap.add_argument("--no-timing", action="store_true", help="skip the 512 x 512 timing")
     ap.add_argument("--timing-only", action="store_true", help="only the 512 x 512 timing (and --picture)")
@@ -215,6 +216,8 @@ def main() -> None:
         print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
     ratios = {q: {} for q in qualities}
     for path in [] if a.timing_only else [CORNELL] + found:
+        if a.only and not any(t in str(path) for t in a.only):
+            continue
         e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities, a.seeds)
         for q in qualities:
             ratios[q][path] = e["denoised"][q][16] / e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
@@ -226,7 +229,7 @@ def main() -> None:
         seconds = " / ".join(f"{e['seconds'][q]:.3f}" for q in qualities)
         print(f"| {name}{clean} | {' | '.join(cells)} | {seconds} |", flush=True)
     print()
-    for q in [] if a.timing_only else qualities:
+    for q in [] if a.timing_only or a.only else qualities:  # the targets need every scene
         in_set = sorted(ratios[q][p] for p in found)
         median = in_set[len(in_set) // 2] if in_set else float("nan")
         print(f"Target ({q}): denoised 16 spp below noisy 128 spp: Cornell box {ratios[q][CORNELL]:.2f} "
