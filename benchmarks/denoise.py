@@ -13,7 +13,7 @@ the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU 
 scenes at every count and a 4096-spp reference is hours on a loaded 2-core machine).
 
     PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--noisy 16 128]
-        [--quality high balanced fast] [--only TEXT ...] [--picture PNG]
+        [--quality high balanced fast] [--only TEXT ...] [--timing-only] [--timing-set] [--picture PNG]
 """
 
 from __future__ import annotations
@@ -168,6 +168,35 @@ def timing(qualities, res: int = 512, spp: int = 16) -> dict:
     return dict(plain=best(plain), featured=best(featured), oidn={q: best(v) for q, v in oidn.items()})
 
 
+def set_timing(paths: list[Path], qualities, res: int = 512, spp: int = 16) -> None:
+    """OIDN's CPU time as a share of each scene's 16-spp render (no features, longer side res pixels), denoise() on
+    a render with features as denoise=True makes it (features prefiltered where not clean), and the median share
+    over the set (the Cornell box left out, as in the error target)."""
+    shares = {q: [] for q in qualities}
+    for path in paths:
+        scene = durer.load(path)
+        wh = size(scene, res)
+        durer.render(scene, 16, 16, samples=1, aovs=True)  # compile
+        cpu = time.process_time()
+        durer.render(scene, *wh, samples=spp)
+        render = time.process_time() - cpu
+        r = durer.render(scene, *wh, samples=spp, aovs=True, **PIXEL_FILTER)
+        clean = clean_features(scene.materials, path=True)
+        cells = []
+        for q in qualities:
+            cpu = time.process_time()
+            denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
+            oidn = time.process_time() - cpu
+            if path != CORNELL:
+                shares[q].append(oidn / render)
+            cells.append(f"{q} {oidn:.2f} s = {100 * oidn / render:.1f}%")
+        print(f"# {path.stem} {wh[0]}x{wh[1]}: render {render:.2f} s CPU, features "
+              f"{'clean' if clean else 'prefiltered'}; OIDN {', '.join(cells)}", flush=True)
+    for q, v in shares.items():
+        v = sorted(v)
+        print(f"OIDN {q}: median share of a {spp}-spp render over the set {100 * v[len(v) // 2]:.1f}%")
+
+
 def picture(path: Path, res: int = 160, spp: int = 16) -> None:
     """Noisy | denoised at spp | reference (1024 spp), Cornell box, sRGB PNG."""
     from PIL import Image
@@ -193,6 +222,8 @@ def main() -> None:
                     help=f"OIDN qualities to measure (default: durer's, {QUALITY})")
     ap.add_argument("--noisy", nargs="+", type=int, default=list(NOISY_SPP), metavar="SPP",
                     help="undenoised sample counts (default: 16 32 64 128 256 512 1024; 128 is the target's)")
+    ap.add_argument("--timing-set", action="store_true",
+                    help="also OIDN's CPU share of each scene's 16-spp render at 512 px (and its median over the set)")
     ap.add_argument("--only", nargs="+", metavar="TEXT", help="only the scenes whose path contains one of these")
     ap.add_argument("--picture", type=Path, help="also write the README's side-by-side PNG here")
     ap.add_argument("--no-timing", action="store_true", help="skip the 512 x 512 timing")
@@ -249,6 +280,8 @@ def main() -> None:
                 ow, oc = t["oidn"][q, n]
                 print(f"    OIDN {q} on {n} thread{'s' * (n > 1)}: {ow:.2f} s wall = {100 * ow / pw:.1f}%, {oc:.2f} s "
                       f"CPU = {100 * oc / pc:.1f}%")
+    if a.timing_set:
+        set_timing([CORNELL] + (found or scene_set()[0]), qualities)
     if a.picture:
         picture(a.picture)
 
