@@ -54,8 +54,7 @@ def denoise_unavailable(options: RenderOptions) -> str | None:
     """Why the page's denoise toggle is off limits (its tooltip), or None: it needs the path tracer's noisy images
     and pyoidn."""
     if options.integrator != "path":
-        return "denoising is for the path tracer's noisy images (this view uses the " + options.integrator + \
-            " integrator)"
+        return "denoising is for the path tracer's noisy images (the course's integrators have no noise to remove)"
     try:
         require_oidn()
     except MissingDependency as e:
@@ -235,7 +234,7 @@ class PreviewSession:
                 self.options.shadows = bool(shadows)
             if mode is not None and mode != self.mode:
                 self.mode = mode
-                if samples is bounces is shadows is denoise is None and self._last is not None:
+                if all(v is None for v in (samples, bounces, shadows, denoise)) and self._last is not None:
                     self._send(self.state())
                     self._submit(self._reencode)
                     return
