@@ -9,9 +9,11 @@ by a few firefly pixels), with the emitters' own pixels left out (every pixel wh
 max_depth=1 render sees an emitter). Targets: denoised at 16 spp below undenoised at 128 spp on the Cornell box and
 on the median scene of the set (the ratio of the two errors, median over the set, the upper one for an even count);
 the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU time, as the machine is shared).
---picture writes the side-by-side image of the README.
+--picture writes the side-by-side image of the README. --noisy picks the undenoised sample counts (the set of 15
+scenes at every count and a 4096-spp reference is hours on a loaded 2-core machine).
 
-    PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--picture PNG]
+    PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--noisy 16 128]
+        [--quality high balanced fast] [--only TEXT ...] [--timing-only] [--timing-set] [--picture PNG]
 """
 
 from __future__ import annotations
@@ -113,10 +115,32 @@ def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualitie
                 seconds={q: float(np.mean(v)) for q, v in seconds.items()}, clean=clean)
 
 
+def oidn_threads(r, quality: str, threads: int) -> None:
+    """OIDN's RT filter on r's colour and features (as denoise() with clean features) on a device of its own
+    limited to `threads` threads (0: OIDN's default, every core), to time its thread count against the render's."""
+    import pyoidn
+
+    images = [np.ascontiguousarray(a, dtype=np.float32) for a in
+              (np.maximum(r.color, 0.0), np.clip(r.albedo, 0.0, 1.0), np.clip(r.shading_normals, -1.0, 1.0))]
+    out = np.empty_like(images[0])
+    with pyoidn.Device() as device:
+        device.set_int("numThreads", threads)
+        device.commit()
+        with pyoidn.Filter(device, pyoidn.OIDN_FILTER_TYPE_RT) as flt:
+            for name, image in zip(("color", "albedo", "normal", "output"), images + [out], strict=True):
+                flt.set_image(name, image, pyoidn.OIDN_FORMAT_FLOAT3)
+            flt.set_bool("hdr", True)
+            flt.set_bool("cleanAux", True)
+            flt.set_quality({"high": 6, "balanced": 5, "fast": 4}[quality])
+            flt.commit()
+            flt.execute()
+
+
 def timing(qualities, res: int = 512, spp: int = 16) -> dict:
-    """A 16-spp render of the Cornell box at 512 x 512 without features, with them, and OIDN on it at each quality:
-    (wall, CPU) seconds, the CPU time of every thread of the process (the share that stays put on a shared machine),
-    best of two each after a warm-up."""
+    """A 16-spp render of the Cornell box at 512 x 512 without features, with them, and OIDN on it at each quality
+    (through denoise(), and on devices of 1 and 2 threads, weights loaded and filter built included): (wall, CPU)
+    seconds, the CPU time of every thread of the process (the share that stays put on a shared machine), best of two
+    each after a warm-up."""
     scene = durer.load(CORNELL)
     r = durer.render(scene, 32, 32, samples=2, aovs=True)  # compile
     for q in qualities:
@@ -128,17 +152,49 @@ def timing(qualities, res: int = 512, spp: int = 16) -> dict:
         return out, (time.perf_counter() - start, time.process_time() - cpu)
 
     plain, featured, oidn = [], [], {q: [] for q in qualities}
+    oidn.update({(q, n): [] for q in qualities for n in (1, 2)})
     for _ in range(2):
         plain.append(timed(lambda: durer.render(scene, res, res, samples=spp))[1])
         r, t = timed(lambda: durer.render(scene, res, res, samples=spp, aovs=True))
         featured.append(t)
         for q in qualities:
             oidn[q].append(timed(lambda q=q, r=r: denoise(r.color, r.albedo, r.shading_normals, quality=q))[1])
+            for n in (1, 2):
+                oidn[q, n].append(timed(lambda q=q, r=r, n=n: oidn_threads(r, q, n))[1])
 
     def best(ts):
         return min(t[0] for t in ts), min(t[1] for t in ts)
 
     return dict(plain=best(plain), featured=best(featured), oidn={q: best(v) for q, v in oidn.items()})
+
+
+def set_timing(paths: list[Path], qualities, res: int = 512, spp: int = 16) -> None:
+    """OIDN's CPU time as a share of each scene's 16-spp render (no features, longer side res pixels), denoise() on
+    a render with features as denoise=True makes it (features prefiltered where not clean), and the median share
+    over the set (the Cornell box left out, as in the error target)."""
+    shares = {q: [] for q in qualities}
+    for path in paths:
+        scene = durer.load(path)
+        wh = size(scene, res)
+        durer.render(scene, 16, 16, samples=1, aovs=True)  # compile
+        cpu = time.process_time()
+        durer.render(scene, *wh, samples=spp)
+        render = time.process_time() - cpu
+        r = durer.render(scene, *wh, samples=spp, aovs=True, **PIXEL_FILTER)
+        clean = clean_features(scene.materials, path=True)
+        cells = []
+        for q in qualities:
+            cpu = time.process_time()
+            denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
+            oidn = time.process_time() - cpu
+            if path != CORNELL:
+                shares[q].append(oidn / render)
+            cells.append(f"{q} {oidn:.2f} s = {100 * oidn / render:.1f}%")
+        print(f"# {path.stem} {wh[0]}x{wh[1]}: render {render:.2f} s CPU, features "
+              f"{'clean' if clean else 'prefiltered'}; OIDN {', '.join(cells)}", flush=True)
+    for q, v in shares.items():
+        v = sorted(v)
+        print(f"OIDN {q}: median share of a {spp}-spp render over the set {100 * v[len(v) // 2]:.1f}%")
 
 
 def picture(path: Path, res: int = 160, spp: int = 16) -> None:
@@ -164,13 +220,18 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="64 px, 1024-spp reference, noisy up to 256 spp")
     ap.add_argument("--quality", nargs="+", default=[QUALITY], choices=("fast", "balanced", "high"),
                     help=f"OIDN qualities to measure (default: durer's, {QUALITY})")
+    ap.add_argument("--noisy", nargs="+", type=int, default=list(NOISY_SPP), metavar="SPP",
+                    help="undenoised sample counts (default: 16 32 64 128 256 512 1024; 128 is the target's)")
+    ap.add_argument("--timing-set", action="store_true",
+                    help="also OIDN's CPU share of each scene's 16-spp render at 512 px (and its median over the set)")
+    ap.add_argument("--only", nargs="+", metavar="TEXT", help="only the scenes whose path contains one of these")
     ap.add_argument("--picture", type=Path, help="also write the README's side-by-side PNG here")
     ap.add_argument("--no-timing", action="store_true", help="skip the 512 x 512 timing")
     ap.add_argument("--timing-only", action="store_true", help="only the 512 x 512 timing (and --picture)")
     a = ap.parse_args()
-    res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, NOISY_SPP, a.quality
+    res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, tuple(sorted(set(a.noisy))), a.quality
     if a.quick:
-        res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in NOISY_SPP if n <= 256)
+        res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in noisy_spp if n <= 256)
     if a.timing_only:
         found, skipped = [], []
     else:
@@ -186,6 +247,8 @@ def main() -> None:
         print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
     ratios = {q: {} for q in qualities}
     for path in [] if a.timing_only else [CORNELL] + found:
+        if a.only and not any(t in str(path) for t in a.only):
+            continue
         e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities, a.seeds)
         for q in qualities:
             ratios[q][path] = e["denoised"][q][16] / e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
@@ -197,7 +260,7 @@ def main() -> None:
         seconds = " / ".join(f"{e['seconds'][q]:.3f}" for q in qualities)
         print(f"| {name}{clean} | {' | '.join(cells)} | {seconds} |", flush=True)
     print()
-    for q in [] if a.timing_only else qualities:
+    for q in [] if a.timing_only or a.only else qualities:  # the targets need every scene
         in_set = sorted(ratios[q][p] for p in found)
         median = in_set[len(in_set) // 2] if in_set else float("nan")
         print(f"Target ({q}): denoised 16 spp below noisy 128 spp: Cornell box {ratios[q][CORNELL]:.2f} "
@@ -213,6 +276,12 @@ def main() -> None:
             print(f"Target ({q}): denoiser under 10% of the render: OIDN {ow:.2f} s wall = {100 * ow / pw:.1f}%, "
                   f"{oc:.2f} s CPU = {100 * oc / pc:.1f}% ({'met' if oc / pc < 0.1 else 'NOT met'} by CPU time); "
                   f"with the features' cost {100 * (fc + oc - pc) / pc:.1f}% CPU")
+            for n in (1, 2):
+                ow, oc = t["oidn"][q, n]
+                print(f"    OIDN {q} on {n} thread{'s' * (n > 1)}: {ow:.2f} s wall = {100 * ow / pw:.1f}%, {oc:.2f} s "
+                      f"CPU = {100 * oc / pc:.1f}%")
+    if a.timing_set:
+        set_timing([CORNELL] + (found or scene_set()[0]), qualities)
     if a.picture:
         picture(a.picture)
 

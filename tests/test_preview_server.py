@@ -247,3 +247,68 @@ def test_the_command_prints_its_address_and_serves_the_page(tmp_path):
             proc.kill()
             raise
     assert code == 130 and "Traceback" not in proc.stderr.read()
+
+
+CORNELL = EXAMPLE.parent / "cornell_box.xml"
+PATH = dict(integrator="path", samples=4, max_depth=8, seed=2)
+
+
+def test_denoise_toggle_is_off_by_default_and_says_why_it_is_disabled(monkeypatch):
+    """The state the page's toggle shows: off; disabled, with the reason as its tooltip, for a course scene's
+    Whitted image and, without pyoidn, with the line that says what to install; a request to denoise there is
+    refused with a notice and the server goes on."""
+    from durer.errors import MissingDependency
+    from durer.preview import session as session_module
+    from durer.rendering.denoise import INSTALL
+
+    whitted = PreviewSession(EXAMPLE, W, H, make_options(**OPTIONS))
+    with TestClient(create_app(whitted)) as http:
+        state = http.get("/state").json()
+        assert state["denoise"] is False and "path tracer" in state["denoise_unavailable"]
+        page = http.get("/").text
+        assert 'id="denoise"' in page and "disabled" in page.split('id="denoise"')[1].split(">")[0]
+
+    def missing():
+        raise MissingDependency(INSTALL)
+
+    monkeypatch.setattr(session_module, "require_oidn", missing)
+    path = PreviewSession(CORNELL, 16, 16, make_options(**PATH))
+    with TestClient(create_app(path)) as http:
+        assert http.get("/state").json()["denoise_unavailable"] == INSTALL
+        with http.websocket_connect("/ws") as ws:
+            ws.send_json({"type": "set", "denoise": True})
+            while (m := ws.receive_json())["type"] != "notice":
+                pass
+            assert m["message"] == f"cannot denoise: {INSTALL}"
+        assert http.get("/state").json()["denoise"] is False
+
+
+def test_denoise_toggle_shows_durer_render_denoise_and_off_again():
+    """On: every level of the progressive path-traced image comes denoised, the last one exactly `durer render
+    --denoise`'s image of the view; off: the undenoised levels again, ending in `durer render`'s."""
+    pytest.importorskip("pyoidn", reason="the denoise extra (pyoidn) is not installed")
+    scene = durer.load(CORNELL)
+    plain = encode_srgb(durer.render(scene, 24, 24, **PATH).color)
+    denoised = durer.render(scene, 24, 24, denoise=True, **PATH)
+    assert not np.array_equal(encode_srgb(denoised.color), plain)
+    session = PreviewSession(CORNELL, 24, 24, make_options(**PATH))
+    srv = PreviewServer(session, "127.0.0.1", 0).start()
+    try:
+        client = Client(srv.url)
+        start = client.final_frame()
+        assert start["denoised"] is False and np.array_equal(png_pixels(start), plain)
+        client.send(type="set", denoise=True)
+        state = client.until(lambda m: m["type"] == "state" and m["denoise"])
+        assert state["denoise_unavailable"] is None
+        frames = [client.until(lambda m: m["type"] == "frame" and m["generation"] == state["generation"])]
+        while not frames[-1]["final"]:
+            frames.append(client.until(lambda m: m["type"] == "frame" and m["generation"] == state["generation"]))
+        assert all(f["denoised"] and f["denoise_seconds"] > 0 for f in frames)
+        assert [f["samples"] for f in frames if f["frame_width"] == 24] == [1, 2, 4]
+        assert np.array_equal(png_pixels(frames[-1]), encode_srgb(denoised.color))
+        client.send(type="set", denoise=False)
+        off = client.until(lambda m: m["type"] == "frame" and m["final"] and not m["denoised"])
+        assert np.array_equal(png_pixels(off), plain)
+        client.close()
+    finally:
+        srv.stop()

@@ -225,6 +225,36 @@ def test_mitsuba_scene_refines_progressively_to_durer_render(browser):
         srv.stop()
 
 
+def test_denoise_toggle_shows_durer_render_denoise(browser, page):
+    """The course scene (Whitted) greys the toggle out, its tooltip saying why; on the path-traced Cornell box it
+    is enabled and off, and ticking it shows `durer render --denoise`'s image, the status saying it is denoised."""
+    assert page.is_disabled("#denoise") and not page.is_checked("#denoise")
+    assert "path tracer" in page.get_attribute("#denoise-label", "title")
+    pytest.importorskip("pyoidn", reason="the denoise extra (pyoidn) is not installed")
+    size = (32, 24)
+    expected = encode_srgb(durer.render(durer.load(CORNELL), *size, denoise=True, **PATH).color)
+    srv = _serve(CORNELL, *size, PATH)
+    pg = browser.new_page()
+    try:
+        pg.set_default_timeout(WAIT_MS)
+        pg.goto(srv.url)
+        _wait_final(pg)
+        assert pg.is_enabled("#denoise") and not pg.is_checked("#denoise")
+        assert pg.evaluate("document.getElementById('image').dataset.denoised") == "0"
+        pg.check("#denoise")
+        pg.wait_for_function("""() => { const i = document.getElementById('image');
+            return i.dataset.denoised === '1' && i.dataset.final === '1'
+                   && i.dataset.generation === document.body.dataset.generation; }""", timeout=WAIT_MS)
+        shown = np.array(pg.evaluate("""() => { const c = document.getElementById('image');
+            return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data); }"""), np.uint8)
+        diff = np.abs(shown.reshape(size[1], size[0], 4)[:, :, :3].astype(int) - expected.astype(int))
+        assert diff.max() <= 2
+        assert "denoised" in pg.inner_text("#status")
+    finally:
+        pg.close()
+        srv.stop()
+
+
 def test_a_failing_render_shows_its_one_line_instead_of_connecting(browser, monkeypatch):
     """The render thread fails before the page connects: the page still shows why, in the error box."""
     from durer.preview import session as session_module

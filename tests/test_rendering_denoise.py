@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import MITSUBA_SCENES
 
 import durer
 from durer.cli import main
@@ -84,6 +85,25 @@ def test_clean_features_only_without_random_choices(cornell):
     caustic = durer.load(EXAMPLES / "caustic.xml")  # glass: reflect or refract, chosen per sample
     assert not clean_features(caustic.materials, path=True)
     assert clean_features(caustic.materials, path=False)
+
+
+@pytest.mark.skipif(not (MITSUBA_SCENES / "mitsuba-data").is_dir(), reason=f"Mitsuba scenes not found at "
+                    f"{MITSUBA_SCENES} (set DURER_SHARED)")
+def test_a_checkerboards_features_are_clean():
+    """Mitsuba's checkerboard picks one of its two materials per point with weight 0 or 1, the same for every
+    sample: its features are handed to OIDN as clean. Away from the squares' edges the path tracer's albedo is one
+    of the two reflectances, whatever the seed; a blending solid texture (marble) is not clean."""
+    from durer.scene.textures import Marble
+
+    scene = durer.load(MITSUBA_SCENES / "mitsuba-data/tests/scenes/orthographic_sensor/test_orthographic_path.xml")
+    assert clean_features(scene.materials, path=True)
+    assert not clean_features([*scene.materials, Marble(material1=0, material2=0)], path=True)
+    a, b = (durer.render(scene, 200, 120, samples=4, seed=k, aovs=True, filter="box", filter_radius=0.5).albedo
+            for k in (1, 2))
+    on = a.max(axis=2) > 0  # the checkerboard rectangle (the background escapes: albedo 0)
+    square = ((np.abs(a - 0.4) < 1e-6) | (np.abs(a - 0.2) < 1e-6)).all(axis=2)  # Mitsuba's colours 0.4 and 0.2
+    same = np.all(a == b, axis=2)
+    assert on.sum() > 5000 and (square & same).sum() > 0.75 * on.sum()  # all but the squares' edge pixels
 
 
 def test_aov_normals_match_render_normals_and_are_unit(tmp_path, cornell):

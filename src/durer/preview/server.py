@@ -3,8 +3,8 @@
 The WebSocket carries JSON both ways. From the server: `state` (size, mode, options, camera), `frame` (a PNG in
 base64, its level and whether it is final), `tree` (a pixel's ray tree, its text and its rays projected into the
 image), `error` (a scene file's `FILE:LINE: message`, or null once fixed), `notice` (a refused request). From the
-page: `orbit`/`pan` {dx, dy} in image pixels, `zoom` {factor}, `reset`, `set` {mode, samples, bounces, shadows},
-`explain` {x, y}, `clear`. Renders run on the session's worker thread; the event loop only relays messages.
+page: `orbit`/`pan` {dx, dy} in image pixels, `zoom` {factor}, `reset`, `set` {mode, samples, bounces, shadows,
+denoise}, `explain` {x, y}, `clear`. Renders run on the session's worker thread; the event loop only relays messages.
 """
 
 from __future__ import annotations
@@ -95,7 +95,8 @@ async def _handle(session: PreviewSession, request: dict) -> None:
     elif kind == "reset":
         session.reset()
     elif kind == "set":
-        session.configure(**{k: request[k] for k in ("mode", "samples", "bounces", "shadows") if k in request})
+        session.configure(**{k: request[k] for k in ("mode", "samples", "bounces", "shadows", "denoise")
+                                if k in request})
     elif kind == "explain":
         await asyncio.wrap_future(session.explain(int(request["x"]), int(request["y"])))
     elif kind == "clear":

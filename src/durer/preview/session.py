@@ -6,7 +6,8 @@ progressively, a coarse image first (1/8 of the size, one sample per pixel), the
 last the full render with the requested samples, which is exactly what `durer render` writes for the same view
 and flags; a change of view or options starts again from the coarse level. It also polls the scene file's
 modification time and reloads it; a malformed file is reported as its `FILE:LINE: message` and the last good
-scene stays on screen until the file is fixed.
+scene stays on screen until the file is fixed. With the denoise toggle on (path tracer only, pyoidn installed),
+every level is rendered with the denoiser's features and shown denoised by OIDN, as `durer render --denoise`.
 """
 
 from __future__ import annotations
@@ -24,14 +25,15 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from ..errors import DurerError
+from ..errors import DurerError, MissingDependency
 from ..io.images import depth_visualization, encode_srgb, normal_visualization, quantize_course
 from ..io.loaders import load_scene
 from ..options import RenderOptions
+from ..rendering.denoise import PIXEL_FILTER, require_oidn
 from ..rendering.explain import check_integrator, explain_in
 from ..rendering.explain_draw import segments
 from ..rendering.raycaster import RenderContext
-from ..rendering.renderer import RenderResult, make_context, render_in
+from ..rendering.renderer import RenderResult, denoise_result, make_context, render_in
 from ..scene.graph import Scene
 from .navigation import View, home_view, orbit, pan, zoom
 
@@ -41,9 +43,31 @@ MAX_SAMPLES, MAX_BOUNCES = 64, 16  # the page's limits: a preview must stay inte
 
 
 def render_view(ctx: RenderContext, width: int, height: int) -> RenderResult:
-    """render_in, path tracer included: the image `durer render` writes for ctx's scene, camera and options."""
+    """render_in, path tracer included: the image `durer render` writes for ctx's scene, camera and options
+    (denoised when they say so, as render() does)."""
     check_integrator(ctx.scene, ctx.options)  # physically based materials need the path tracer: say so
-    return render_in(ctx, width, height)
+    result = render_in(ctx, width, height)
+    return denoise_result(result, ctx.scene, ctx.options) if ctx.options.denoise else result
+
+
+def denoise_unavailable(options: RenderOptions) -> str | None:
+    """Why the page's denoise toggle is off limits (its tooltip), or None: it needs the path tracer's noisy images
+    and pyoidn."""
+    if options.integrator != "path":
+        return "denoising is for the path tracer's noisy images (the course's integrators have no noise to remove)"
+    try:
+        require_oidn()
+    except MissingDependency as e:
+        return str(e)
+    return None
+
+
+def denoised_levels(options: RenderOptions) -> list[tuple[int, RenderOptions]]:
+    """levels_for with the denoiser: every level denoised, with `durer render --denoise`'s one-pixel box filter
+    (the last level is its image); the levels before the last at OIDN's `fast` preset, as they are soon replaced."""
+    levels = levels_for(dataclasses.replace(options, denoise=True, **PIXEL_FILTER))
+    return [(f, o if i == len(levels) - 1 else dataclasses.replace(o, denoise_quality="fast"))
+            for i, (f, o) in enumerate(levels)]
 
 
 def levels_for(options: RenderOptions) -> list[tuple[int, RenderOptions]]:
@@ -101,6 +125,7 @@ class PreviewSession:
         self.options.validate()
         self.mesh_path, self.poll = mesh_path, poll
         self.mode = "color"
+        self.denoise = False  # the page's toggle: show the path tracer's levels denoised (denoised_levels)
         self.scene: Scene | None = source if isinstance(source, Scene) else None
         self.error: str | None = None  # the scene file's FILE:LINE message while it does not load
         self.failure: str | None = None  # the last render's one-line failure, until a render works again
@@ -150,7 +175,7 @@ class PreviewSession:
         o = self.options
         return {"type": "state", "width": self.width, "height": self.height, "mode": self.mode,
                 "samples": o.samples, "integrator": o.integrator, "bounces": o.bounces, "shadows": o.shadows,
-                "shade_back": o.shade_back,
+                "shade_back": o.shade_back, "denoise": self.denoise, "denoise_unavailable": denoise_unavailable(o),
                 "scene": str(self.path) if self.path else "(scene object)", "generation": self._generation,
                 "camera": self.view.describe() if self.view else None}
 
@@ -183,15 +208,20 @@ class PreviewSession:
             self._changed(self.home)
 
     def configure(self, mode: str | None = None, samples: int | None = None, bounces: int | None = None,
-                  shadows: bool | None = None) -> None:
-        """Change what is shown (ValueError on a bad value); a mode change re-encodes the last frame."""
+                  shadows: bool | None = None, denoise: bool | None = None) -> None:
+        """Change what is shown (ValueError on a bad value, or denoise asked for where denoise_unavailable says
+        why not); a mode change re-encodes the last frame."""
         if mode is not None and mode not in MODES:
             raise ValueError(f"unknown mode {mode!r} (use one of {', '.join(MODES)})")
         if samples is not None and not (isinstance(samples, int) and 1 <= samples <= MAX_SAMPLES):
             raise ValueError(f"samples must be an integer from 1 to {MAX_SAMPLES}, got {samples!r}")
         if bounces is not None and not (isinstance(bounces, int) and 0 <= bounces <= MAX_BOUNCES):
             raise ValueError(f"bounces must be an integer from 0 to {MAX_BOUNCES}, got {bounces!r}")
+        if denoise and denoise_unavailable(self.options):
+            raise ValueError(f"cannot denoise: {denoise_unavailable(self.options)}")
         with self._cond:
+            if denoise is not None:
+                self.denoise = bool(denoise)
             if samples is not None:
                 self.options.samples = samples
                 if self.options.sampler == "uniform" and samples > 1:
@@ -204,7 +234,7 @@ class PreviewSession:
                 self.options.shadows = bool(shadows)
             if mode is not None and mode != self.mode:
                 self.mode = mode
-                if samples is None and bounces is None and shadows is None and self._last is not None:
+                if all(v is None for v in (samples, bounces, shadows, denoise)) and self._last is not None:
                     self._send(self.state())
                     self._submit(self._reencode)
                     return
@@ -344,7 +374,8 @@ class PreviewSession:
         with self._cond:
             generation = self._generation
             options = dataclasses.replace(self.options)
-        levels = levels_for(options)
+            denoise = self.denoise and not denoise_unavailable(options)
+        levels = denoised_levels(options) if denoise else levels_for(options)
         for i, (factor, opts) in enumerate(levels):
             w, h = max(1, -(-self.width // factor)), max(1, -(-self.height // factor))
             start = time.perf_counter()
@@ -359,8 +390,8 @@ class PreviewSession:
                         self._send({"type": "error", "message": None})
                 message = {"type": "frame", "generation": generation, "level": i, "levels": len(levels),
                            "final": final, "samples": opts.samples, "frame_width": w, "frame_height": h,
-                           "width": self.width,
-                           "height": self.height, "seconds": time.perf_counter() - start}
+                           "width": self.width, "height": self.height, "seconds": time.perf_counter() - start,
+                           "denoised": opts.denoise, "denoise_seconds": result.denoise_seconds}
                 self._last = (message, result)
                 self._send(self._encoded(message, result))
                 if self.tree is not None and i == 0:

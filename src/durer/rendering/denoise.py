@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import MissingDependency
 from ..scene.bsdfs import Dielectric, Surface, TwoSided
 from ..scene.materials import PhongMaterial
-from ..scene.textures import Texture
+from ..scene.textures import Checkerboard, Texture, UVCheckerboard
 
 INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]"'
 QUALITY = "high"  # OIDN's own default preset; RenderOptions.denoise_quality picks another (benchmarks/README.md)
@@ -52,12 +52,14 @@ def clean_features(materials: list, path: bool) -> bool:
     """Are the features noise-free apart from antialiasing, so OIDN may take them as they are (cleanAux)? The ray
     caster's and the Whitted tracer's are (they follow every mirror and refraction ray); the path tracer's are not
     when a path's first non-specular hit is chosen at random: behind a smooth dielectric (reflect or refract, by
-    Fresnel) or a course material with both a mirror and a transparent lobe and no smooth one, or on a solid
-    texture (one of its blended materials picked per sample)."""
+    Fresnel) or a course material with both a mirror and a transparent lobe and no smooth one, or on a blending
+    solid texture (noise, marble, wood: one of its two materials picked per sample by the blend weight). A
+    checkerboard's weight is 0 or 1, so its pick is the same for every sample of a point: clean, and prefiltering
+    its scenes' features changed their denoised error by under 1% for two to four times OIDN's time."""
     if not path:
         return True
     for m in materials:
-        if isinstance(m, Texture.__args__):
+        if isinstance(m, Texture.__args__) and not isinstance(m, (Checkerboard, UVCheckerboard)):
             return False
         if isinstance(m, Surface):
             m = m.bsdf

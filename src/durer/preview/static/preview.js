@@ -46,6 +46,11 @@ function showState(m) {
     $(key).title = m.integrator === "path" ? "the path tracer follows the scene's max_depth" : "";
   }
   $("mode").value = m.mode;
+  // the denoise toggle: off by default, disabled (the tooltip says why) without the path tracer or pyoidn
+  $("denoise").checked = m.denoise;
+  $("denoise").disabled = !!m.denoise_unavailable;
+  $("denoise-label").title = m.denoise_unavailable ||
+    "show the path-traced image denoised by Intel Open Image Denoise (albedo and normals from the same samples)";
 }
 
 function showFrame(m) {
@@ -61,10 +66,11 @@ function showFrame(m) {
     image.dataset.mode = m.mode;
     image.dataset.final = m.final ? "1" : "0";
     image.dataset.samples = m.samples;
+    image.dataset.denoised = m.denoised ? "1" : "0";
     image.dataset.camera = JSON.stringify(m.camera);  // the camera of the frame shown (the state's may be newer)
     document.body.dataset.camera = JSON.stringify(m.camera);
     $("status").textContent = `${m.final ? "done" : "refining"}: ${m.frame_width}x${m.frame_height}` +
-      `, ${m.samples} spp` +
+      `, ${m.samples} spp` + (m.denoised ? `, denoised (${m.denoise_seconds.toFixed(2)} s)` : "") +
       ` (level ${m.level + 1}/${m.levels}, ${m.seconds.toFixed(2)} s)`;
   };
   img.src = "data:image/png;base64," + m.png;
@@ -157,6 +163,7 @@ $("mode").addEventListener("change", () => send({ type: "set", mode: $("mode").v
 $("samples").addEventListener("change", () => send({ type: "set", samples: parseInt($("samples").value, 10) }));
 $("bounces").addEventListener("change", () => send({ type: "set", bounces: parseInt($("bounces").value, 10) }));
 $("shadows").addEventListener("change", () => send({ type: "set", shadows: $("shadows").checked }));
+$("denoise").addEventListener("change", () => send({ type: "set", denoise: $("denoise").checked }));
 $("reset").addEventListener("click", () => send({ type: "reset" }));
 $("clear").addEventListener("click", () => send({ type: "clear" }));
 connect();
