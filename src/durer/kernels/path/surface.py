@@ -74,9 +74,9 @@ def uv_at(px, py, pz, k, j, tris, tri_uv, w2o, center, radius):
     Triangles: barycentric UVs, dp/du and dp/dv from the edges and UV differences (zeros where the UVs are
     degenerate); a triangle without UVs (all zero, or fewer rows than triangles) has (u, v) = 0 (what a texture
     reads on Mitsuba's sdfgrid; textures on other meshes without UVs are refused at load) and Mitsuba's barycentric
-    derivatives, its edges (Mitsuba's UVs are then (b1, b2)), which orient anisotropic BSDFs as Mitsuba's do. Analytic shapes (kind SPHERE, the shape code in `radius`):
-    Mitsuba's parametrisations of the object-space point q, phi = atan2(qy, qx) in [0, 2 pi): spheres
-    (phi / 2 pi, theta / pi), disks (r, phi / 2 pi), cylinders (phi / 2 pi, qz), derivatives taken to world space.
+    derivatives, its edges (Mitsuba's UVs are then (b1, b2)), which orient anisotropic BSDFs as Mitsuba's do.
+    Analytic shapes (kind SPHERE, the shape code in `radius`): Mitsuba's parametrisations of the object-space point
+    q, phi = atan2(qy, qx) in [0, 2 pi): spheres (phi / 2 pi, theta / pi), disks (r, phi / 2 pi), cylinders (phi / 2 pi, qz), derivatives taken to world space.
     Planes and misses: zeros."""
     if k == SPHERE:
         m = w2o[j]
