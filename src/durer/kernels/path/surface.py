@@ -76,8 +76,8 @@ def uv_at(px, py, pz, k, j, tris, tri_uv, w2o, center, radius):
     reads on Mitsuba's sdfgrid; textures on other meshes without UVs are refused at load) and Mitsuba's barycentric
     derivatives, its edges (Mitsuba's UVs are then (b1, b2)), which orient anisotropic BSDFs as Mitsuba's do.
     Analytic shapes (kind SPHERE, the shape code in `radius`): Mitsuba's parametrisations of the object-space point
-    q, phi = atan2(qy, qx) in [0, 2 pi): spheres (phi / 2 pi, theta / pi), disks (r, phi / 2 pi), cylinders (phi / 2 pi, qz), derivatives taken to world space.
-    Planes and misses: zeros."""
+    q, phi = atan2(qy, qx) in [0, 2 pi): spheres (phi / 2 pi, theta / pi), disks (r, phi / 2 pi), cylinders
+    (phi / 2 pi, qz), derivatives taken to world space. Planes and misses: zeros."""
     if k == SPHERE:
         m = w2o[j]
         qx = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
