@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numba
 import numpy as np
 import pytest
-from conftest import pinhole_rays
+from conftest import MESHES, pinhole_rays
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -17,8 +15,7 @@ from durer.accel.compile import compile_scene
 from durer.scene.graph import Group, Scene, Transform
 from durer.scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
-BUNNY = SHARED / "meshes" / "bun_zipper.ply"
+BUNNY = MESHES / "bun_zipper.ply"
 
 
 def _random_scene(rng: np.random.Generator, n_tri: int, n_sph: int, n_plane: int) -> Scene:

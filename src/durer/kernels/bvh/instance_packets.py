@@ -64,11 +64,11 @@ from .single import blas_any, blas_closest, descend, load_ray, next_leaf, pop_cl
 
 @nb.njit(**JIT, inline="always")
 def _scratch(stack_size):
-    """Per-call scratch: both levels' stacks (nodes, entry distances), the one-ray lane distances, the world
-    and object-space packet rows, both levels' child orders (key, order), ray indices, and the packet's best
-    hit so far (instance, primitive code as in packet.py's _PRIM row, u, v)."""
+    """Per-call scratch: both levels' stacks (nodes, entry distances), the world and object-space packet rows,
+    both levels' child orders (key, order), ray indices, and the packet's best hit so far (instance, primitive
+    code as in packet.py's _PRIM row, u, v)."""
     return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(stack_size, np.int32),
-            np.empty(stack_size), np.empty(4), np.empty(_NROW * PACKET), np.empty(_NROW * PACKET),
+            np.empty(stack_size), np.empty(_NROW * PACKET), np.empty(_NROW * PACKET),
             np.empty(4), np.empty(4, np.int64), np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64),
             np.empty(PACKET, np.int64), np.empty(PACKET), np.empty(PACKET), np.empty(PACKET))
 
@@ -109,7 +109,7 @@ def _object_packet(rr, ro, w2o):
 
 @nb.njit(**JIT, inline="always")
 def _trace_instance(k, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                    rr, ro, stack_node, stack_t, dist, key, order, res_inst, res_prim, res_u, res_v, any_mode):
+                    rr, ro, stack_node, stack_t, key, order, res_inst, res_prim, res_u, res_v, any_mode):
     """The packet rr against instance k: its closer hits recorded (rr's best, res_*), or (any_mode) the rays
     that hit something retired (best -inf)."""
     root = inst_root[k]
@@ -132,12 +132,12 @@ def _trace_instance(k, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, 
         px, py, pz, qx, qy, qz = ro[_OX + r], ro[_OY + r], ro[_OZ + r], ro[_DX + r], ro[_DY + r], ro[_DZ + r]
         if any_mode:
             if blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                        px, py, pz, qx, qy, qz, ro[_TMIN + r], best, stack_node, dist):
+                        px, py, pz, qx, qy, qz, ro[_TMIN + r], best, stack_node):
                 rr[_BEST + r] = -np.inf
             continue
         t, kind, prim, u, w = blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius,
                                            sph_w2o, px, py, pz, qx, qy, qz, ro[_TMIN + r], best, stack_node,
-                                           stack_t, dist)
+                                           stack_t)
         if kind != 0:
             rr[_BEST + r] = t
             res_inst[r], res_prim[r] = k, (prim if kind == TRIANGLE else -(prim + 1.0))
@@ -147,7 +147,7 @@ def _trace_instance(k, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, 
 @nb.njit(**JIT)
 def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
                      sph_center, sph_radius, sph_w2o, nrx, nry, nrz, rr, ro, top_node, top_t, stack_node,
-                     stack_t, dist, top_key, top_order, key, order, res_inst, res_prim, res_u, res_v, any_mode):
+                     stack_t, top_key, top_order, key, order, res_inst, res_prim, res_u, res_v, any_mode):
     """Walk the top-level tree with the coherent packet rr (set up by packet_setup), nearest instance boxes
     first, skipping boxes beyond every ray's best hit so far; each instance met is traced by _trace_instance.
     res_inst must start at -1: it ends as the instance of each ray's closest hit (closest mode)."""
@@ -192,7 +192,7 @@ def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bound
                 first, end = leaf_range(c)
                 for j in range(first, end):
                     _trace_instance(top_leaf[j], inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri,
-                                    sph_center, sph_radius, sph_w2o, rr, ro, stack_node, stack_t, dist, key, order,
+                                    sph_center, sph_radius, sph_w2o, rr, ro, stack_node, stack_t, key, order,
                                     res_inst, res_prim, res_u, res_v, any_mode)
                 far = _packet_far(rr)
         for q in range(n_in - 1, -1, -1):  # inner children onto the stack, farthest first
@@ -206,7 +206,7 @@ def packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bound
 @nb.njit(**JIT)
 def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
                   bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node, top_t, stack_node,
-                  stack_t, dist, t_out, inst_out, kind_out, prim_out, u_out, v_out):
+                  stack_t, t_out, inst_out, kind_out, prim_out, u_out, v_out):
     """Rays idx[:m] one at a time, the one-ray two-level walk (nearest instance box first), written out here: as
     an inline="always" helper called from the kernel, the same walk measured 5-15% slower on incoherent rays."""
     for q in range(m):
@@ -219,7 +219,7 @@ def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_chi
         node, sp = 0, 0  # the top-level tree's root
         while True:
             leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx_,
-                               idy, idz, lo, best, dist)
+                               idy, idz, lo, best)
             if leaf != 0:
                 first, end = leaf_range(leaf)
                 for j in range(first, end):
@@ -227,7 +227,7 @@ def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_chi
                     px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                     t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
                                                        sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
-                                                       lo, best, stack_node, stack_t, dist)
+                                                       lo, best, stack_node, stack_t)
                     if kind != 0:
                         best = t
                         b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
@@ -240,7 +240,7 @@ def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_chi
 
 @nb.njit(**JIT)
 def _any_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-              bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node, stack_node, dist, out):
+              bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node, stack_node, out):
     """Rays idx[:m] one at a time, the first hit ending a ray's search (written out, as in _closest_rays)."""
     for q in range(m):
         i = idx[q]
@@ -252,7 +252,7 @@ def _any_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, 
         sp = 1
         while not hit:
             leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx_, idy, idz,
-                                 lo, hi, dist)
+                                 lo, hi)
             if leaf == 0:
                 break
             first, end = leaf_range(leaf)
@@ -260,7 +260,7 @@ def _any_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, 
                 k = top_leaf[j]
                 px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                 if blas_any(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                            px, py, pz, qx, qy, qz, lo, hi, stack_node, dist):
+                            px, py, pz, qx, qy, qz, lo, hi, stack_node):
                     hit = True
                     break
         out[i] = hit
@@ -275,7 +275,7 @@ def closest_hit_instances(origins, directions, t_min, t_max,
     instances: t (inf on a miss), instance (-1), kind, prim, u, v. width as in trace.closest_hit_bvh."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    (top_node, top_t, stack_node, stack_t, dist, rr, ro, top_key, top_order, key, order, idx,
+    (top_node, top_t, stack_node, stack_t, rr, ro, top_key, top_order, key, order, idx,
      res_inst, res_prim, res_u, res_v) = _scratch(stack_size)
     spread = packet_spread_limit(top_bounds, top_child)
     for blk in range(blk0, blk1):
@@ -286,7 +286,7 @@ def closest_hit_instances(origins, directions, t_min, t_max,
                 res_inst[:] = -1
                 packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim,
                                  leaf_tri, sph_center, sph_radius, sph_w2o, nrx, nry, nrz, rr, ro, top_node, top_t,
-                                 stack_node, stack_t, dist, top_key, top_order, key, order, res_inst, res_prim,
+                                 stack_node, stack_t, top_key, top_order, key, order, res_inst, res_prim,
                                  res_u, res_v, False)
                 for r in range(PACKET):
                     i = idx[r]
@@ -302,7 +302,7 @@ def closest_hit_instances(origins, directions, t_min, t_max,
                 continue
             _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root,
                           inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                          top_node, top_t, stack_node, stack_t, dist, t_out, inst_out, kind_out, prim_out, u_out,
+                          top_node, top_t, stack_node, stack_t, t_out, inst_out, kind_out, prim_out, u_out,
                           v_out)
 
 
@@ -314,7 +314,7 @@ def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, 
     ends a ray's search (a packet's, once all its rays have hit)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    (top_node, top_t, stack_node, stack_t, dist, rr, ro, top_key, top_order, key, order, idx,
+    (top_node, top_t, stack_node, stack_t, rr, ro, top_key, top_order, key, order, idx,
      res_inst, res_prim, res_u, res_v) = _scratch(stack_size)
     spread = packet_spread_limit(top_bounds, top_child)
     for blk in range(blk0, blk1):
@@ -324,11 +324,11 @@ def any_hit_instances(origins, directions, t_min, t_max, top_bounds, top_child, 
             if coherent and m == PACKET:
                 packet_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim,
                                  leaf_tri, sph_center, sph_radius, sph_w2o, nrx, nry, nrz, rr, ro, top_node, top_t,
-                                 stack_node, stack_t, dist, top_key, top_order, key, order, res_inst, res_prim,
+                                 stack_node, stack_t, top_key, top_order, key, order, res_inst, res_prim,
                                  res_u, res_v, True)
                 for r in range(PACKET):
                     out[idx[r]] = rr[_BEST + r] == -np.inf
                 continue
             _any_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root,
                       inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, top_node,
-                      stack_node, dist, out)
+                      stack_node, out)

@@ -84,7 +84,6 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
     fill = out_t.shape[0] > 0
     top_node = np.empty(stack_size, np.int32)
     stack_node = np.empty(stack_size, np.int32)
-    dist = np.empty(4)
     for i in range(blk0 * RAYS_PER_BLOCK, min(n, blk1 * RAYS_PER_BLOCK)):
         ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
         lo, hi = t_min[i], t_max[i]
@@ -98,7 +97,7 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
         sp = 1
         while True:
             leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
-                                 lo, hi, dist)
+                                 lo, hi)
             if leaf == 0:
                 break
             first, end = leaf_range(leaf)
@@ -107,7 +106,7 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
                 px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
                 before = total
                 total = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius,
-                                 sph_w2o, px, py, pz, qx, qy, qz, lo, hi, stack_node, dist,
+                                 sph_w2o, px, py, pz, qx, qy, qz, lo, hi, stack_node,
                                  ot, op, ok_, ou, ov, total)
                 if fill:
                     for q in range(before, min(total, stop - start)):

@@ -36,8 +36,8 @@ from .single import blas_any, blas_closest, load_ray, planes_closest
 @nb.njit(**JIT, inline="always")
 def scratch(stack_size):
     """Per-call scratch of the one-level kernels, allocated once and reused by every packet and ray: the stack
-    (nodes, entry distances), the one-ray lane distances, the packet rows, the packet's child order, ray indices."""
-    return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(4), np.empty(_NROW * PACKET),
+    (nodes, entry distances), the packet rows, the packet's child order, ray indices."""
+    return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(_NROW * PACKET),
             np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64))
 
 
@@ -51,7 +51,7 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
     threads (cheaper to compile and to load from the cache than a parallel=True kernel)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    stack_node, stack_t, dist, rr, key, order, idx = scratch(stack_size)
+    stack_node, stack_t, rr, key, order, idx = scratch(stack_size)
     spread = packet_spread_limit(bounds, child)
     pprims = np.empty(PACKET, np.int32)
     for blk in range(blk0, blk1):
@@ -89,8 +89,7 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
                 lo = t_min[i]
                 best, pprim = planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo, t_max[i])
                 t, kind, prim, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius,
-                                                   sph_w2o, ox, oy, oz, dx, dy, dz, lo, best, stack_node, stack_t,
-                                                   dist)
+                                                   sph_w2o, ox, oy, oz, dx, dy, dz, lo, best, stack_node, stack_t)
                 if kind == MISS and pprim >= 0:
                     t, kind, prim = best, PLANE, pprim
                 t_out[i] = t
@@ -107,7 +106,7 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
     the tree (in packets when coherent, as in closest_hit_bvh)."""
     n = origins.shape[0]
     n_chunks = (n + PACKET - 1) // PACKET
-    stack_node, stack_t, dist, rr, key, order, idx = scratch(stack_size)
+    stack_node, stack_t, rr, key, order, idx = scratch(stack_size)
     spread = packet_spread_limit(bounds, child)
     for blk in range(blk0, blk1):
         for c in range(blk * BLOCK, min(n_chunks, (blk + 1) * BLOCK)):
@@ -132,7 +131,7 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                     out[i] = True
                 else:
                     out[i] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                      ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node, dist)
+                                      ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node)
 
 
 def image_width(shape: tuple[int, ...]) -> int:
