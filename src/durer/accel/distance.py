@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from ..kernels.common import SPHERE, TRIANGLE
+from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.points.closest import closest_points_instances
 from ..kernels.points.order import grid_bits, sort_by_cell
 from ..kernels.points.winding import (
@@ -143,7 +143,7 @@ class DistanceIndex:
         moved vertices would be), ellipsoids outward (the object-space radius by the inverse transpose). NumPy,
         no Numba parallel region, so forked processes may call it."""
         p = self.tree.packed
-        k = np.where(kind != 0, inst, 0)
+        k = np.where(kind != MISS, inst, 0)
         w2o = p.w2o[k][:, :, :3] if len(p.w2o) else np.zeros((len(q), 3, 3))
         obj = np.zeros((len(q), 3))
         tri = kind == TRIANGLE

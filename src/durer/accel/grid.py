@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kernels.common import SPHERE, TRIANGLE
 from ..kernels.course.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
 from ..options import check_grid
 from .compile import CompiledScene
@@ -105,10 +106,11 @@ class GridAccelerator:
         return np.diff(self.start).reshape(nz, ny, nx)
 
     def cell_items(self, i: int, j: int, k: int) -> list[tuple[int, int]]:
-        """(kind, index) of the primitives in cell (i, j, k): kind 1 triangle, 2 sphere."""
+        """(kind, index) of the primitives in cell (i, j, k): kind TRIANGLE or SPHERE (kernels/common.py)."""
         nx, ny = int(self.dims[0]), int(self.dims[1])
         c = (k * ny + j) * nx + i
-        return [(1, int(x)) if x >= 0 else (2, int(-x - 1)) for x in self.items[self.start[c]:self.start[c + 1]]]
+        items = self.items[self.start[c]:self.start[c + 1]]
+        return [(TRIANGLE, int(x)) if x >= 0 else (SPHERE, int(-x - 1)) for x in items]
 
     def walk(self, origin, direction, t_min: float = 0.0, t_max: float = np.inf):
         """The 3D-DDA walk of one ray, as the kernels take it: cells (K,3) as (i, j, k) in order, the t where

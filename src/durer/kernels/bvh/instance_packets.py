@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..common import JIT, SPHERE, TRIANGLE
+from ..common import JIT, MISS, SPHERE, TRIANGLE
 from ..intersect import shear_axes
 from ..small_sort import insert_ascending
 from .instances import to_object
@@ -68,8 +68,8 @@ def _scratch(stack_size):
     both levels' child orders (key, order), ray indices, and the packet's best hit so far (instance, primitive
     code as in packet.py's _PRIM row, u, v)."""
     return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(stack_size, np.int32),
-            np.empty(stack_size), np.empty(_NROW * PACKET), np.empty(_NROW * PACKET),
-            np.empty(4), np.empty(4, np.int64), np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64),
+            np.empty(stack_size), np.empty(_NROW * PACKET), np.empty(_NROW * PACKET), np.empty(WIDTH),
+            np.empty(WIDTH, np.int64), np.empty(WIDTH), np.empty(WIDTH, np.int64), np.empty(PACKET, np.int64),
             np.empty(PACKET, np.int64), np.empty(PACKET), np.empty(PACKET), np.empty(PACKET))
 
 
@@ -92,7 +92,7 @@ def _object_packet(rr, ro, w2o):
         kz = 0 if (ax >= ay) & (ax >= az) else (1 if ay >= az else 2)  # shear_axes' kz; kx, ky follow the signs
         bad += ((dx < 0.0) + 2 * (dy < 0.0) + 4 * (dz < 0.0) != s0) | (kz != kz0)
     if bad:
-        return False, 0, 4, 8, kx0, ky0, kz0
+        return False, LO_X, LO_Y, LO_Z, kx0, ky0, kz0
     for axis in range(3):  # the extremes packet_traverse reads: origins, reciprocal directions, t_min
         lo = hi = ro[_OX + axis * PACKET]
         dlo = dhi = _nonzero(ro[_DX + axis * PACKET])
@@ -138,7 +138,7 @@ def _trace_instance(k, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, 
         t, kind, prim, u, w = blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius,
                                            sph_w2o, px, py, pz, qx, qy, qz, ro[_TMIN + r], best, stack_node,
                                            stack_t)
-        if kind != 0:
+        if kind != MISS:
             rr[_BEST + r] = t
             res_inst[r], res_prim[r] = k, (prim if kind == TRIANGLE else -(prim + 1.0))
             res_u[r], res_v[r] = u, w
@@ -214,7 +214,7 @@ def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_chi
         ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
         lo = t_min[i]
         best = t_max[i]
-        b_inst, b_kind, b_prim, b_u, b_v = -1, 0, -1, 0.0, 0.0
+        b_inst, b_kind, b_prim, b_u, b_v = -1, MISS, -1, 0.0, 0.0
         idx_, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
         node, sp = 0, 0  # the top-level tree's root
         while True:
@@ -228,13 +228,13 @@ def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_chi
                     t, kind, prim, u, w = blas_closest(bounds, child, inst_root[k], leaf_prim, leaf_tri,
                                                        sph_center, sph_radius, sph_w2o, px, py, pz, qx, qy, qz,
                                                        lo, best, stack_node, stack_t)
-                    if kind != 0:
+                    if kind != MISS:
                         best = t
                         b_inst, b_kind, b_prim, b_u, b_v = k, kind, prim, u, w
             node, sp = pop_closer(top_node, top_t, sp, best)
             if node == 0:
                 break
-        t_out[i], inst_out[i], kind_out[i] = (best if b_kind != 0 else np.inf), b_inst, b_kind
+        t_out[i], inst_out[i], kind_out[i] = (best if b_kind != MISS else np.inf), b_inst, b_kind
         prim_out[i], u_out[i], v_out[i] = b_prim, b_u, b_v
 
 
@@ -298,7 +298,7 @@ def closest_hit_instances(origins, directions, t_min, t_max,
                         u_out[i], v_out[i] = res_u[r], res_v[r]
                     else:
                         t_out[i], inst_out[i], kind_out[i], prim_out[i], u_out[i], v_out[i] = \
-                            np.inf, -1, 0, -1, 0.0, 0.0
+                            np.inf, -1, MISS, -1, 0.0, 0.0
                 continue
             _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root,
                           inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,

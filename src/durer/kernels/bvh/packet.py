@@ -108,7 +108,7 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
         bad += ((sgn != s0) | (kz != kz0)
                 | (dx * dx0 + dy * dy0 + dz * dz0 < cone0 * np.sqrt(dx * dx + dy * dy + dz * dz)))
     if bad:
-        return False, 0, 4, 8, kx0, ky0, kz0
+        return False, LO_X, LO_Y, LO_Z, kx0, ky0, kz0
     for k in range(PACKET):
         i = idx[k] if k < n else i0
         rr[_OX + k], rr[_OY + k], rr[_OZ + k] = origins[i, 0], origins[i, 1], origins[i, 2]
@@ -121,7 +121,7 @@ def packet_setup(origins, directions, t_min, t_max, idx, n, rr, max_spread):
         for k in range(1, PACKET):
             lo, hi = min(lo, rr[_OX + axis * PACKET + k]), max(hi, rr[_OX + axis * PACKET + k])
         if hi - lo > max_spread:
-            return False, 0, 4, 8, kx0, ky0, kz0
+            return False, LO_X, LO_Y, LO_Z, kx0, ky0, kz0
         rr[_EXT + 2 * axis], rr[_EXT + 2 * axis + 1] = lo, hi
     # the reciprocal directions' extremes (a zero component as 1e-300, as ray_setup takes it): the rays share each
     # component's sign and 1 / x falls with x on either side of 0, rounding included, so the extremes of the
@@ -317,9 +317,9 @@ def packet_traverse(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_ra
     izl, izh = rr[_EXT + _EXT_INV + 4], rr[_EXT + _EXT_INV + 5]
     tlo = rr[_EXT + _EXT_TMIN]
     # the origin extreme that minimises the near plane's distance and the one that maximises the far one's
-    onx, ofx = (oxh, oxl) if nrx == 0 else (oxl, oxh)
-    ony, ofy = (oyh, oyl) if nry == 4 else (oyl, oyh)
-    onz, ofz = (ozh, ozl) if nrz == 8 else (ozl, ozh)
+    onx, ofx = (oxh, oxl) if nrx == LO_X else (oxl, oxh)
+    ony, ofy = (oyh, oyl) if nry == LO_Y else (oyl, oyh)
+    onz, ofz = (ozh, ozl) if nrz == LO_Z else (ozl, ozh)
     stack_node[0] = root
     stack_t[0] = -np.inf
     sp = 1

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..common import JIT, SPHERE, TRIANGLE
+from ..common import JIT, MISS, SPHERE, TRIANGLE
 from ..intersect import intersect_plane, ray_shear, sphere_hit_in_object_space, watertight_triangle
 from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, LEAF_COUNT_BITS, LO_X, LO_Y, LO_Z, NODE_FLOATS, leaf_range
 from .simd import entry4, prefetch
@@ -213,7 +213,7 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
     hit has been found meanwhile. stack_node and stack_t are the caller's scratch.
     """
     best = t_max
-    kind = 0
+    kind = MISS
     prim = -1
     bu = 0.0
     bv = 0.0
@@ -254,7 +254,7 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
                 break
         if node == 0:
             break
-    if kind == 0:
+    if kind == MISS:
         best = np.inf
     return best, kind, prim, bu, bv
 

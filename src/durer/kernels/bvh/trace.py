@@ -11,7 +11,7 @@ import numba as nb
 import numpy as np
 
 from ..common import JIT, MISS, PLANE, SPHERE, TRIANGLE
-from .layout import BLOCK, PACKET, TILE, packet_spread_limit
+from .layout import BLOCK, PACKET, TILE, WIDTH, packet_spread_limit
 from .packet import (
     _BEST,
     _DET,
@@ -38,7 +38,7 @@ def scratch(stack_size):
     """Per-call scratch of the one-level kernels, allocated once and reused by every packet and ray: the stack
     (nodes, entry distances), the packet rows, the packet's child order, ray indices."""
     return (np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(_NROW * PACKET),
-            np.empty(4), np.empty(4, np.int64), np.empty(PACKET, np.int64))
+            np.empty(WIDTH), np.empty(WIDTH, np.int64), np.empty(PACKET, np.int64))
 
 
 @nb.njit(**JIT)
