@@ -101,7 +101,7 @@ def ray_permutation(o, d) -> np.ndarray:
 
 def single_plain(acc, o, d, lo, hi, closest: bool) -> np.ndarray:
     out = np.empty(len(o))
-    one_by_one(o, d, lo, hi, *acc._args(), closest, out)
+    one_by_one(o, d, lo, hi, *acc._args().args, closest, out)
     return out
 
 

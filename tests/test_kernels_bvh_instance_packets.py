@@ -74,7 +74,7 @@ def _one_by_one(fn, tree, o, d, lo, hi):
 def _coherent_tiles(tree: TwoLevelBVH, o, d, lo, hi) -> float:
     """The share of the image's 4 x 4 tiles that go through the top-level tree as packets."""
     rr, idx = np.empty(_NROW * PACKET), np.empty(PACKET, np.int64)
-    spread = packet_spread_limit(tree.packed.top[0], tree.packed.top[1])
+    spread = packet_spread_limit(tree.packed.top.bounds, tree.packed.top.child)
     tiles = len(o) // PACKET
     coherent = 0
     for c in range(tiles):

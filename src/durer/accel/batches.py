@@ -23,7 +23,6 @@ from ..kernels.bvh.queries import (
 from ..kernels.threads import run_pieces
 from .bvh import INVALID_ID, TwoLevelBVH
 
-_NO_PLANES = (np.zeros((0, 3)), np.zeros(0))
 _NO_MAP = np.zeros(0, np.int32)
 _IDENTITY = np.ascontiguousarray(np.eye(4)[:3])
 
@@ -72,11 +71,11 @@ def _one_level(tree: TwoLevelBVH) -> tuple | None:
     if len(tree.instances) == 1:
         w2o = np.ascontiguousarray(p.w2o[0])
         moved = not np.array_equal(w2o, np.eye(4)[:3])
-        return w2o, moved, (*p.blas, *_NO_PLANES, p.stack), (_NO_MAP, _NO_MAP, _NO_MAP, _NO_MAP)
+        return w2o, moved, tree.one_level_tree().args, (_NO_MAP, _NO_MAP, _NO_MAP, _NO_MAP)
     if tree.world is None:
         return None
     w = tree.world
-    return _IDENTITY, False, w.args, (w.tri_inst, w.tri_local, w.sph_inst, w.sph_prim)
+    return _IDENTITY, False, w.kernel.args, (w.tri_inst, w.tri_local, w.sph_inst, w.sph_prim)
 
 
 def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
@@ -140,5 +139,5 @@ def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
 
 def _normal_args(tree: TwoLevelBVH) -> tuple:
     p = tree.packed
-    return p.inst_shape, p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas[4]
+    return p.inst_shape, p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas.sph_center
 
