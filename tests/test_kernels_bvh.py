@@ -316,8 +316,8 @@ def test_packets_only_for_rays_that_are_close():
     within PACKET_CONE of the first one's and their origins within the spread limit: rays of one octant that fan
     out 40 degrees, or parallel rays from origins far apart, go one by one (a packet's interval bounds would
     sweep most of the tree for them: 175x slower measured on 65k incoherent rays sorted by origin)."""
+    from durer.kernels.bvh.chunks import _NROW, packet_setup
     from durer.kernels.bvh.layout import PACKET
-    from durer.kernels.bvh.packet import _NROW, packet_setup
 
     idx = np.arange(PACKET)
     rr = np.empty(_NROW * PACKET)
@@ -338,8 +338,8 @@ def test_packet_extremes_are_the_extremes_of_each_rays_own_reciprocals():
     """packet_setup takes the reciprocal directions' extremes as 1 / (extreme direction) (6 divisions a packet):
     they must be, to the bit, the extremes of every ray's own 1 / d (a zero component as 1e-300, as the one-ray
     slab test takes it), and the origins' and t_min's extremes those of the rays."""
+    from durer.kernels.bvh.chunks import _EXT, _EXT_INV, _EXT_TMIN, _NROW, packet_setup
     from durer.kernels.bvh.layout import PACKET
-    from durer.kernels.bvh.packet import _EXT, _EXT_INV, _EXT_TMIN, _NROW, packet_setup
 
     rng = np.random.default_rng(12)
     idx = rng.permutation(PACKET)

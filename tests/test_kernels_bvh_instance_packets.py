@@ -11,9 +11,9 @@ from hypothesis import strategies as st
 
 from durer import RaycastingScene
 from durer.accel.bvh import Shape, TwoLevelBVH
+from durer.kernels.bvh.chunks import _NROW, chunk_rays, packet_setup
 from durer.kernels.bvh.instance_packets import any_hit_instances, closest_hit_instances
 from durer.kernels.bvh.layout import PACKET, packet_spread_limit
-from durer.kernels.bvh.packet import _NROW, chunk_rays, packet_setup
 from durer.kernels.threads import run_blocks
 
 RES = 48

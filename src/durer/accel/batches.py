@@ -90,11 +90,11 @@ def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
         t[:], inst[:], prim[:], uv[:], normals[:] = np.inf, INVALID_ID, INVALID_ID, 0.0, 0.0
     elif (one := _one_level(tree)) is not None:
         w2o, moved, args, maps = one
-        rays.run(closest_one_level, w2o, moved, *args, rays.width, rays.band(), *maps, *_normal_args(tree),
+        rays.run(closest_one_level, w2o, moved, args, rays.width, rays.band(), *maps, *_normal_args(tree),
                  t, inst, prim, uv, normals)
     else:
         p = tree.packed
-        rays.run(closest_two_level, *p.args, rays.width, rays.band(), p.inst_shape, p.tri_off, p.normals, p.inst_sign,
+        rays.run(closest_two_level, p.args, rays.width, rays.band(), p.inst_shape, p.tri_off, p.normals, p.inst_sign,
                  t, inst, prim, uv, normals)
     return {"t_hit": t, "geometry_ids": inst, "primitive_ids": prim, "primitive_uvs": uv,
             "primitive_normals": normals}
@@ -107,9 +107,9 @@ def occluded(tree: TwoLevelBVH, rays: RayBatch) -> np.ndarray:
         return out
     if (one := _one_level(tree)) is not None:
         w2o, moved, args, _ = one
-        rays.run(occluded_one_level, w2o, moved, *args, rays.width, rays.band(), out)
+        rays.run(occluded_one_level, w2o, moved, args, rays.width, rays.band(), out)
     else:
-        rays.run(occluded_two_level, *tree.packed.args, rays.width, rays.band(), out)
+        rays.run(occluded_two_level, tree.packed.args, rays.width, rays.band(), out)
     return out
 
 
@@ -122,7 +122,7 @@ def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
     empty = dict(t=f, inst=i32, kind=i8, prim=i32, u=f, v=f)
     if not tree.instances:
         return counts, (empty if fill else None)
-    args = (*tree.packed.args, rays.band())
+    args = (tree.packed.args, rays.band())
     rays.run(crossings_two_level, *args, np.zeros(n, np.int64), f, i32, i8, i32, f, f, counts)
     if not fill:
         return counts, None

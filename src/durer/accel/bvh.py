@@ -29,7 +29,7 @@ from ..kernels.bvh.trace import any_hit_bvh, closest_hit_bvh
 from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.threads import run_blocks
 from .compile import CompiledScene
-from .hits import Hits, per_ray
+from .hits import Hits, ray_arrays
 
 INVALID_ID = -1
 
@@ -479,9 +479,7 @@ class BVHAccelerator:
         are then traced in 4 x 4 tiles, which is faster."""
         n = len(origins)
         h = Hits.empty(n)
-        o = np.ascontiguousarray(origins, dtype=np.float64)
-        d = np.ascontiguousarray(directions, dtype=np.float64)
-        lo, hi = per_ray(t_min, n), per_ray(t_max, n)
+        o, d, lo, hi = ray_arrays(origins, directions, t_min, t_max)
         width = _checked_width(width, o, d)
         run_blocks(closest_hit_bvh, n, o, d, lo, hi, *self._args().args, width, h.t, h.kind, h.prim, h.u, h.v)
         if self.instances is not None and n:
@@ -506,9 +504,7 @@ class BVHAccelerator:
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)
-        o = np.ascontiguousarray(origins, dtype=np.float64)
-        d = np.ascontiguousarray(directions, dtype=np.float64)
-        lo, hi = per_ray(t_min, n), per_ray(t_max, n)
+        o, d, lo, hi = ray_arrays(origins, directions, t_min, t_max)
         run_blocks(any_hit_bvh, n, o, d, lo, hi, *self._args().args, _checked_width(width, o, d), out)
         if self.instances is not None and n and not out.all():
             rest = np.flatnonzero(~out)

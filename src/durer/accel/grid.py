@@ -21,7 +21,7 @@ from ..kernels.common import SPHERE, TRIANGLE
 from ..kernels.course.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
 from ..options import check_grid
 from .compile import CompiledScene
-from .hits import Hits, per_ray
+from .hits import Hits, QueriedOnly, per_ray, ray_arrays
 from .stats import RayStats
 
 
@@ -44,7 +44,7 @@ def _sphere_boxes(cs: CompiledScene, as_box: np.ndarray) -> tuple[np.ndarray, np
     return np.where(as_box[:, None], wlo, lo), np.where(as_box[:, None], whi, hi)
 
 
-class GridAccelerator:
+class GridAccelerator(QueriedOnly):
     """A uniform grid of nx x ny x nz cells over the scene's bounded primitives, walked with 3D-DDA.
 
     `sphere_as_box` (S,) says which spheres go in by their box (default: those under a Transform in the scene
@@ -137,25 +137,17 @@ class GridAccelerator:
         n = len(origins)
         h = Hits.empty(n)
         count, tests, cells = self._counters(n)
-        closest_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
-                         np.ascontiguousarray(directions, dtype=np.float64),
-                         per_ray(t_min, n), per_ray(t_max, n), *self._geometry(),
+        closest_hit_grid(*ray_arrays(origins, directions, t_min, t_max), *self._geometry(),
                          h.t, h.kind, h.prim, h.u, h.v, count, tests, cells)
         if count:
             self.stats.add(n, False, int(tests.sum()), int(cells.sum()))
         return h
 
-    def kernel_tree(self) -> None:
-        """No tree: integrators query the grid (the Accelerator protocol), so its -stats count every ray."""
-        return None
-
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)
         count, tests, cells = self._counters(n)
-        any_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
-                     np.ascontiguousarray(directions, dtype=np.float64),
-                     per_ray(t_min, n), per_ray(t_max, n), *self._geometry(), out, count, tests, cells)
+        any_hit_grid(*ray_arrays(origins, directions, t_min, t_max), *self._geometry(), out, count, tests, cells)
         if count:
             self.stats.add(n, True, int(tests.sum()), int(cells.sum()))
         return out

@@ -153,6 +153,17 @@ def slot_hit(j, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, ox, oy, oz
 
 
 @nb.njit(**JIT, inline="always")
+def _push_entered(child, node, stack_node, sp, d, lane):
+    """Push child `lane` of `node` when the ray entered its box (entry distance d < inf); returns the stack
+    pointer. One call a lane: the 4-wide node test gives four scalars, not an array to loop over (an array
+    costs reference counting per node visit)."""
+    if d < np.inf:
+        stack_node[sp] = child[node, lane]
+        sp += 1
+    return sp
+
+
+@nb.njit(**JIT, inline="always")
 def next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi):
     """The unordered walk shared by any-hit and all-hits traversals (one or two levels): pop nodes, pushing the
     children whose boxes the ray enters within [t_lo, t_hi], until a leaf comes up. Returns (leaf code, or 0 when
@@ -164,18 +175,10 @@ def next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy
             return node, sp
         prefetch_children(bounds, _NO_LEAVES, child, node)
         d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi)
-        if d0 < np.inf:
-            stack_node[sp] = child[node, 0]
-            sp += 1
-        if d1 < np.inf:
-            stack_node[sp] = child[node, 1]
-            sp += 1
-        if d2 < np.inf:
-            stack_node[sp] = child[node, 2]
-            sp += 1
-        if d3 < np.inf:
-            stack_node[sp] = child[node, 3]
-            sp += 1
+        sp = _push_entered(child, node, stack_node, sp, d0, 0)
+        sp = _push_entered(child, node, stack_node, sp, d1, 1)
+        sp = _push_entered(child, node, stack_node, sp, d2, 2)
+        sp = _push_entered(child, node, stack_node, sp, d3, 3)
     return 0, sp
 
 

@@ -315,10 +315,7 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, sta
         d = directions[r]
         tlo = t_min[r]
         best = t_max[r]
-        bkind = MISS
-        bprim = -1
-        bu = 0.0
-        bv = 0.0
+        bkind, bprim, bu, bv = MISS, -1, 0.0, 0.0
         tests = 0
         cells = 0
         # unbounded primitives beside the grid
