@@ -4,8 +4,9 @@ This docstring is the one map of the BVH's kernels; each module says the rest ab
 
 **The tree** (layout.py). A 4-wide tree: each node holds its four children's boxes (float32, rounded outwards,
 rows LO_X .. HI_Z of NODE_FLOATS floats) and their codes: > 0 an inner node, 0 an empty lane, < 0 a leaf
-(`leaf_code(start, count)` makes one, `leaf_range(code)` gives its slots). A leaf's slots index `leaf_prim` (triangle id, or -(sphere + 1)) and
-`leaf_tri` (the triangle's nine coordinates, float32 or float64, always widened to float64 before arithmetic).
+(`leaf_code(start, count)` makes one, `leaf_range(code)` gives its slots). A leaf's slots index `leaf_prim`
+(triangle id, or -(sphere + 1)) and `leaf_tri` (the triangle's nine coordinates, float32 or float64, always widened
+to float64 before arithmetic).
 build.py makes it: a binned-SAH binary tree collapsed to 4 wide, subtrees on threads.
 
 **One ray** (single.py, simd.py). `ray_setup` computes the reciprocal direction and the watertight test's shear
