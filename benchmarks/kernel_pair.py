@@ -1,7 +1,7 @@
 """Kernel speed of two checkouts, paired and interleaved (issue 19's "within noise in a paired run before and after").
 
     git worktree add ../kernels-base 933254b
-    python benchmarks/kernel_pair.py --a ../kernels-base/src --b src [--rounds 5] [--repeat 3]
+    python benchmarks/kernel_pair.py --a ../kernels-base/src --b src [--rounds 5] [--repeat 3] [--only WORD]
 
 Each round starts one process per side, A then B on even rounds and B then A on odd ones, so that neither side
 always runs first; each process imports durer from its own `src` (its own Numba cache), times every row (after a
@@ -10,7 +10,7 @@ caches first. Printed per row: the median over rounds of each side's time and of
 B is faster), with the ratios' range. Rows: `cast_rays` on 1024 x 1024 pinhole rays at the Stanford bunny on one
 and two threads, 2^20 incoherent rays on two threads, `compute_closest_points` of 2^18 points around it, and
 `durer.render` of examples/cornell_box.xml at 64 x 64, 16 samples (the path tracer). Mesh: the Stanford bunny
-(Stanford Computer Graphics Laboratory) from ../shared/meshes or DURER_SHARED.
+(Stanford Computer Graphics Laboratory) from ../shared/meshes or DURER_SHARED. --only WORD: the rows naming WORD.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def _best(f, repeat: int) -> float:
     return min(times)
 
 
-def child(repeat: int) -> None:
+def child(repeat: int, only: str) -> None:
     """Time every row with the durer on sys.path; print {row: seconds} as JSON."""
     import numpy as np
     import trimesh
@@ -61,13 +61,13 @@ def child(repeat: int) -> None:
     work = (lambda: rs.cast_rays(rays, nthreads=1), lambda: rs.cast_rays(rays, nthreads=2),
             lambda: rs.cast_rays(incoherent, nthreads=2), lambda: rs.compute_closest_points(points, nthreads=2),
             lambda: durer.render(scene, 64, 64, samples=16, nthreads=2))
-    print(json.dumps({row: _best(f, repeat) for row, f in zip(ROWS, work, strict=True)}))
+    print(json.dumps({row: _best(f, repeat) for row, f in zip(ROWS, work, strict=True) if only in row}))
 
 
-def run_side(src: str, repeat: int) -> dict:
+def run_side(src: str, repeat: int, only: str = "") -> dict:
     env = dict(os.environ, PYTHONPATH=str(Path(src).resolve()), DURER_SHARED=str(SHARED))
-    out = subprocess.run([sys.executable, __file__, "--child", "--repeat", str(repeat)], env=env, check=True,
-                         capture_output=True, text=True).stdout
+    command = [sys.executable, __file__, "--child", "--repeat", str(repeat), "--only", only]
+    out = subprocess.run(command, env=env, check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 
@@ -77,22 +77,24 @@ def main() -> None:
     ap.add_argument("--b", help="the second checkout's src folder (after)")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", default="", help="time only the rows whose name contains this")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.child:
-        child(a.repeat)
+        child(a.repeat, a.only)
         return
     for src in (a.a, a.b):  # fill each side's Numba cache
-        run_side(src, 1)
+        run_side(src, 1, a.only)
     times = {"a": [], "b": []}
     for r in range(a.rounds):
         for side in ("ab" if r % 2 == 0 else "ba"):
-            times[side].append(run_side(a.a if side == "a" else a.b, a.repeat))
-        print(f"round {r + 1}: " + "  ".join(f"{times['b'][-1][row] / times['a'][-1][row]:.3f}" for row in ROWS),
+            times[side].append(run_side(a.a if side == "a" else a.b, a.repeat, a.only))
+        rows = [row for row in ROWS if a.only in row]
+        print(f"round {r + 1}: " + "  ".join(f"{times['b'][-1][row] / times['a'][-1][row]:.3f}" for row in rows),
               file=sys.stderr, flush=True)
     print("| row | A (s, median) | B (s, median) | B / A, median of rounds (range) |")
     print("|---|---|---|---|")
-    for row in ROWS:
+    for row in [row for row in ROWS if a.only in row]:
         ta = [t[row] for t in times["a"]]
         tb = [t[row] for t in times["b"]]
         ratios = [y / x for x, y in zip(ta, tb, strict=True)]

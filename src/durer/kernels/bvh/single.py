@@ -156,11 +156,11 @@ def slot_hit(j, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, ox, oy, oz
 def _push_entered(child, node, stack_node, sp, d, lane):
     """Push child `lane` of `node` when the ray entered its box (entry distance d < inf); returns the stack
     pointer. One call a lane: the 4-wide node test gives four scalars, not an array to loop over (an array
-    costs reference counting per node visit)."""
-    if d < np.inf:
-        stack_node[sp] = child[node, lane]
-        sp += 1
-    return sp
+    costs reference counting per node visit). Branch-free, as _push: the entry is always written (the stack keeps
+    spare entries) and only the pointer depends on d; with a branch, Numba keeps the reference counting of the
+    arrays an inlined helper is given (measured: 20 increments in blas_any's code instead of 1)."""
+    stack_node[sp] = child[node, lane]
+    return sp + np.int64(d < np.inf)
 
 
 @nb.njit(**JIT, inline="always")
