@@ -24,7 +24,7 @@ box once for the packet with interval bounds no single ray can beat (`packet_nod
 against all live rays in a vectorised loop with each ray's own arithmetic (`_edges`), so every ray gets the one-ray
 answer to the bit, and pushes the inner children (`push_inner`).
 
-**Batches** (trace.py). `closest_hit_bvh` / `any_hit_bvh` take rays in chunks of PACKET (`chunks.load_chunk`):
+**Batches** (trace.py). `closest_hit_bvh` / `any_hit_bvh` take rays in chunks of PACKET (`chunks.chunk_rays`):
 coherent chunks as packets, the rest one ray at a time; threads.run_blocks spreads blocks of chunks over threads.
 
 **Two levels** (instances.py, instance_packets.py). A mesh placed more than once is stored once: a top-level

@@ -66,7 +66,7 @@ def load_chunk(c, origins, directions, t_min, t_max, width, idx, rr, max_spread)
     packet (coherent and a whole chunk), nrx, nry, nrz, kx, ky, kz)."""
     m = chunk_rays(c, origins.shape[0], width, idx)
     coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr, max_spread)
-    return m, coherent and m == PACKET, nrx, nry, nrz, kx, ky, kz
+    return m, coherent & (m == PACKET), nrx, nry, nrz, kx, ky, kz
 
 
 @nb.njit(**JIT, inline="always")

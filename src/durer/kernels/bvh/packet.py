@@ -45,7 +45,6 @@ from .chunks import (
     _TMIN,
 )
 from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, LO_X, LO_Y, LO_Z, NODE_FLOATS, PACKET, WIDTH, leaf_range
-from .single import planes_closest
 
 
 @nb.njit(**JIT, inline="always")
@@ -258,20 +257,6 @@ def push_inner(child, node, key, order, n_in, stack_node, stack_t, sp):
             stack_t[sp] = key[q]
             sp += 1
     return sp
-
-
-@nb.njit(**JIT, inline="always")
-def packet_planes(pl_normal, pl_offset, rr, pprims, any_mode):
-    """The unbounded planes beside the tree, for every ray of a loaded packet before its walk: each ray's best so
-    far becomes its nearest plane's t and pprims[k] that plane (-1: none closer); any_mode: a ray that hits a
-    plane retires (best -inf)."""
-    for k in range(PACKET):
-        best, pprims[k] = planes_closest(pl_normal, pl_offset, rr[_OX + k], rr[_OY + k], rr[_OZ + k],
-                                         rr[_DX + k], rr[_DY + k], rr[_DZ + k], rr[_TMIN + k], rr[_BEST + k])
-        if not any_mode:
-            rr[_BEST + k] = best
-        elif pprims[k] >= 0:
-            rr[_BEST + k] = -np.inf
 
 
 @nb.njit(**JIT, inline="always")

@@ -11,9 +11,22 @@ import numba as nb
 import numpy as np
 
 from ..common import JIT, MISS, PLANE
-from .chunks import chunk_span, load_chunk, packet_rows
+from .chunks import (
+    _BEST,
+    _DX,
+    _DY,
+    _DZ,
+    _OX,
+    _OY,
+    _OZ,
+    _TMIN,
+    chunk_rays,
+    chunk_span,
+    packet_rows,
+    packet_setup,
+)
 from .layout import PACKET, TILE, WIDTH, packet_spread_limit
-from .packet import hit_of_code, packet_barycentrics, packet_hit, packet_planes, packet_retired, packet_traverse
+from .packet import hit_of_code, packet_barycentrics, packet_hit, packet_retired, packet_traverse
 from .single import blas_any, blas_closest, load_ray, planes_closest
 
 
@@ -45,9 +58,13 @@ def closest_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim,
     threads (cheaper to compile and to load from the cache than a parallel=True kernel)."""
     stack_node, stack_t, rr, key, order, idx, pprims, spread = scratch(stack_size, bounds, child)
     for c in range(*chunk_span(blk0, blk1, origins.shape[0])):
-        m, packet, nrx, nry, nrz, kx, ky, kz = load_chunk(c, origins, directions, t_min, t_max, width, idx, rr, spread)
-        if packet:
-            packet_planes(pl_normal, pl_offset, rr, pprims, False)
+        m = chunk_rays(c, origins.shape[0], width, idx)
+        coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
+        if coherent and m == PACKET:
+            for k in range(PACKET):
+                best, pprims[k] = planes_closest(pl_normal, pl_offset, rr[_OX + k], rr[_OY + k], rr[_OZ + k],
+                                                 rr[_DX + k], rr[_DY + k], rr[_DZ + k], rr[_TMIN + k], rr[_BEST + k])
+                rr[_BEST + k] = best
             packet_traverse(bounds, child, np.int32(0), leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                             nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, np.bool_(False))
             packet_barycentrics(rr)
@@ -81,8 +98,9 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
     the tree (in packets when coherent, as in closest_hit_bvh)."""
     stack_node, stack_t, rr, key, order, idx, pprims, spread = scratch(stack_size, bounds, child)
     for c in range(*chunk_span(blk0, blk1, origins.shape[0])):
-        m, packet, nrx, nry, nrz, kx, ky, kz = load_chunk(c, origins, directions, t_min, t_max, width, idx, rr, spread)
-        if not packet:
+        m = chunk_rays(c, origins.shape[0], width, idx)
+        coherent, nrx, nry, nrz, kx, ky, kz = packet_setup(origins, directions, t_min, t_max, idx, m, rr, spread)
+        if not (coherent and m == PACKET):
             for q in range(m):
                 i = idx[q]
                 ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
@@ -90,7 +108,11 @@ def any_hit_bvh(origins, directions, t_min, t_max, bounds, child, leaf_prim, lea
                 out[i] = pprim >= 0 or blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius,
                                                 sph_w2o, ox, oy, oz, dx, dy, dz, t_min[i], t_max[i], stack_node)
             continue
-        packet_planes(pl_normal, pl_offset, rr, pprims, True)
+        for k in range(PACKET):
+            _, pprim = planes_closest(pl_normal, pl_offset, rr[_OX + k], rr[_OY + k], rr[_OZ + k],
+                                      rr[_DX + k], rr[_DY + k], rr[_DZ + k], rr[_TMIN + k], rr[_BEST + k])
+            if pprim >= 0:
+                rr[_BEST + k] = -np.inf
         packet_traverse(bounds, child, np.int32(0), leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                         nrx, nry, nrz, kx, ky, kz, rr, stack_node, stack_t, key, order, np.bool_(True))
         for k in range(PACKET):
