@@ -29,19 +29,19 @@ MESH = Path(__file__).resolve().parents[2] / "shared" / "meshes" / "bun_zipper.p
 Tree = namedtuple("Tree", "bounds child leaf_prim leaf_tri sph_center sph_radius sph_w2o")
 
 def positional(o, d, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack, out):
-    stack_node, stack_t, dist = np.empty(stack, np.int32), np.empty(stack), np.empty(4)
+    stack_node, stack_t = np.empty(stack, np.int32), np.empty(stack)
     for i in range(o.shape[0]):
         t, k, p, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
                                      o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2], 0.0, np.inf,
-                                     stack_node, stack_t, dist)
+                                     stack_node, stack_t)
         out[i] = t
 
 def bundled(o, d, tree, stack, out):
-    stack_node, stack_t, dist = np.empty(stack, np.int32), np.empty(stack), np.empty(4)
+    stack_node, stack_t = np.empty(stack, np.int32), np.empty(stack)
     for i in range(o.shape[0]):
         t, k, p, u, v = blas_closest(tree.bounds, tree.child, 0, tree.leaf_prim, tree.leaf_tri, tree.sph_center,
                                      tree.sph_radius, tree.sph_w2o, o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1],
-                                     d[i, 2], 0.0, np.inf, stack_node, stack_t, dist)
+                                     d[i, 2], 0.0, np.inf, stack_node, stack_t)
         out[i] = t
 
 mesh = trimesh.load(str(MESH), force="mesh", process=False)

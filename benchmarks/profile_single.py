@@ -122,13 +122,11 @@ def kernel(bounds, child, leaf_prim, leaf_tri, o, d, stack_size):
     """blas_closest over the batch, as bvh_trace.closest_hit_bvh calls it for incoherent chunks."""
     stack_node = np.empty(stack_size, np.int32)
     stack_t = np.empty(stack_size)
-    dist = np.empty(4)
     e3, e1, e34 = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3, 4))
     acc = 0.0
     for i in range(o.shape[0]):
         t, kind, prim, u, v = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, e3, e1, e34, o[i, 0], o[i, 1],
-                                           o[i, 2], d[i, 0], d[i, 1], d[i, 2], 0.0, np.inf, stack_node, stack_t,
-                                           dist)
+                                           o[i, 2], d[i, 0], d[i, 1], d[i, 2], 0.0, np.inf, stack_node, stack_t)
         acc += t
     return acc
 

@@ -73,16 +73,16 @@ def one_by_one(o, d, lo, hi, bounds, child, leaf_prim, leaf_tri, sph_center, sph
     """Every ray alone, as closest_hit_bvh / any_hit_bvh trace a chunk that is not coherent (planes, then the
     tree): the one-ray path whatever the order, so sorting shows what it does to that path's cache use.
     out = t (closest) or 1.0 / 0.0 (any)."""
-    stack_node, stack_t, dist = np.empty(stack_size, np.int32), np.empty(stack_size), np.empty(4)
+    stack_node, stack_t = np.empty(stack_size, np.int32), np.empty(stack_size)
     for i in range(o.shape[0]):
         ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
         best, pprim = planes_closest(pl_normal, pl_offset, ox, oy, oz, dx, dy, dz, lo[i], hi[i])
         if closest:
             t = blas_closest(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, ox, oy, oz,
-                             dx, dy, dz, lo[i], best, stack_node, stack_t, dist)[0]
+                             dx, dy, dz, lo[i], best, stack_node, stack_t)[0]
             out[i] = min(t, best)
         elif pprim >= 0 or blas_any(bounds, child, 0, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                    ox, oy, oz, dx, dy, dz, lo[i], hi[i], stack_node, dist):
+                                    ox, oy, oz, dx, dy, dz, lo[i], hi[i], stack_node):
             out[i] = 1.0
         else:
             out[i] = 0.0
@@ -101,7 +101,7 @@ def ray_permutation(o, d) -> np.ndarray:
 
 def single_plain(acc, o, d, lo, hi, closest: bool) -> np.ndarray:
     out = np.empty(len(o))
-    one_by_one(o, d, lo, hi, *acc._args(), closest, out)
+    one_by_one(o, d, lo, hi, *acc._args().args, closest, out)
     return out
 
 

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numba
 import numpy as np
 import pytest
-from conftest import pinhole_rays
+from conftest import MESHES, pinhole_rays
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -17,8 +15,7 @@ from durer.accel.compile import compile_scene
 from durer.scene.graph import Group, Scene, Transform
 from durer.scene.shapes import Plane, Sphere, Triangle, TriangleMesh
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
-BUNNY = SHARED / "meshes" / "bun_zipper.ply"
+BUNNY = MESHES / "bun_zipper.ply"
 
 
 def _random_scene(rng: np.random.Generator, n_tri: int, n_sph: int, n_plane: int) -> Scene:
@@ -319,8 +316,8 @@ def test_packets_only_for_rays_that_are_close():
     within PACKET_CONE of the first one's and their origins within the spread limit: rays of one octant that fan
     out 40 degrees, or parallel rays from origins far apart, go one by one (a packet's interval bounds would
     sweep most of the tree for them: 175x slower measured on 65k incoherent rays sorted by origin)."""
+    from durer.kernels.bvh.chunks import _NROW, packet_setup
     from durer.kernels.bvh.layout import PACKET
-    from durer.kernels.bvh.packet import _NROW, packet_setup
 
     idx = np.arange(PACKET)
     rr = np.empty(_NROW * PACKET)
@@ -341,8 +338,8 @@ def test_packet_extremes_are_the_extremes_of_each_rays_own_reciprocals():
     """packet_setup takes the reciprocal directions' extremes as 1 / (extreme direction) (6 divisions a packet):
     they must be, to the bit, the extremes of every ray's own 1 / d (a zero component as 1e-300, as the one-ray
     slab test takes it), and the origins' and t_min's extremes those of the rays."""
+    from durer.kernels.bvh.chunks import _EXT, _EXT_INV, _EXT_TMIN, _NROW, packet_setup
     from durer.kernels.bvh.layout import PACKET
-    from durer.kernels.bvh.packet import _EXT, _EXT_INV, _EXT_TMIN, _NROW, packet_setup
 
     rng = np.random.default_rng(12)
     idx = rng.permutation(PACKET)

@@ -11,9 +11,9 @@ from hypothesis import strategies as st
 
 from durer import RaycastingScene
 from durer.accel.bvh import Shape, TwoLevelBVH
+from durer.kernels.bvh.chunks import _NROW, chunk_rays, packet_setup
 from durer.kernels.bvh.instance_packets import any_hit_instances, closest_hit_instances
 from durer.kernels.bvh.layout import PACKET, packet_spread_limit
-from durer.kernels.bvh.packet import _NROW, chunk_rays, packet_setup
 from durer.kernels.threads import run_blocks
 
 RES = 48
@@ -74,7 +74,7 @@ def _one_by_one(fn, tree, o, d, lo, hi):
 def _coherent_tiles(tree: TwoLevelBVH, o, d, lo, hi) -> float:
     """The share of the image's 4 x 4 tiles that go through the top-level tree as packets."""
     rr, idx = np.empty(_NROW * PACKET), np.empty(PACKET, np.int64)
-    spread = packet_spread_limit(tree.packed.top[0], tree.packed.top[1])
+    spread = packet_spread_limit(tree.packed.top.bounds, tree.packed.top.child)
     tiles = len(o) // PACKET
     coherent = 0
     for c in range(tiles):

@@ -429,14 +429,14 @@ def test_float32_leaves_give_the_float64_leaves_answers_to_the_bit(sphere_mesh, 
     s = RaycastingScene()
     s.add_triangles(vertices, sphere_mesh.faces)
     s.build()
-    assert s._bvh.packed.blas[3].dtype == np.float32
+    assert s._bvh.packed.blas.leaf_tri.dtype == np.float32
     narrow = _every_query(s, np.random.default_rng(3))
     narrow_leaves = bvh.narrow_leaves
     monkeypatch.setattr(bvh, "narrow_leaves", lambda leaf_tri: leaf_tri)
     wide = RaycastingScene()
     wide.add_triangles(vertices, sphere_mesh.faces)
     wide.build()
-    assert wide._bvh.packed.blas[3].dtype == np.float64
+    assert wide._bvh.packed.blas.leaf_tri.dtype == np.float64
     for got, ref in zip(narrow, _every_query(wide, np.random.default_rng(3)), strict=True):
         np.testing.assert_array_equal(got, ref)
     monkeypatch.setattr(bvh, "narrow_leaves", narrow_leaves)

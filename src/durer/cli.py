@@ -98,12 +98,6 @@ def _course_options(a: argparse.Namespace) -> RenderOptions:
     return opts
 
 
-def run_course(argv: list[str]) -> int:
-    a = course_parser().parse_args(argv)
-    with thread_count(a.threads):
-        return _run_course(a)
-
-
 def _run_course(a: argparse.Namespace) -> int:
     opts = _course_options(a)
     _validate(opts)
@@ -249,12 +243,6 @@ def render_parser() -> argparse.ArgumentParser:
     return p
 
 
-def run_render(argv: list[str]) -> int:
-    a = render_parser().parse_args(argv)
-    with thread_count(a.threads):
-        return _run_render(a)
-
-
 def _run_render(a: argparse.Namespace) -> int:
     from .rendering.renderer import check_size, render
 
@@ -320,42 +308,43 @@ def _default_size(camera, longer: int = 512) -> tuple[int, int]:
 
 
 # --- issue 12: one pixel's ray tree (cli_explain.py) and the live preview (preview/command.py) ---------------
-def _subcommand_parser(module) -> argparse.ArgumentParser:
-    """The parser of a command whose module gives PARSER (prog, usage, ...) and add_arguments, plus the render
-    flags every rendering command shares."""
-    p = _Parser(allow_abbrev=False, **module.PARSER)
-    module.add_arguments(p)
-    add_render_flags(p, size_default=None, size_help="image width and height in pixels (default: as durer render: "
-                     "the scene's film, else 512 512)")
-    return p
+def _subcommand(load, command: str):
+    """(run, parser) of a rendering command whose module (load() imports it on first use) gives PARSER (prog,
+    usage, ...), add_arguments and the function `command`(args, render_options, scene_size): its parser gets the
+    render flags every rendering command shares, and it runs with their thread count."""
+
+    def parser() -> argparse.ArgumentParser:
+        module = load()
+        p = _Parser(allow_abbrev=False, **module.PARSER)
+        module.add_arguments(p)
+        add_render_flags(p, size_default=None, size_help="image width and height in pixels (default: as durer "
+                         "render: the scene's film, else 512 512)")
+        return p
+
+    return _threaded(parser, lambda a: getattr(load(), command)(a, render_options, scene_size)), parser
 
 
-def explain_parser() -> argparse.ArgumentParser:
+def _threaded(parser, run):
+    """A command line's entry: argv parsed by parser(), then run(args) with --threads threads."""
+
+    def command(argv: list[str]) -> int:
+        a = parser().parse_args(argv)
+        with thread_count(a.threads):
+            return run(a)
+
+    return command
+
+
+def _explain_module():
     from . import cli_explain
 
-    return _subcommand_parser(cli_explain)
+    return cli_explain
 
 
-def run_explain(argv: list[str]) -> int:
-    from .cli_explain import explain_command
-
-    a = explain_parser().parse_args(argv)
-    with thread_count(a.threads):
-        return explain_command(a, render_options, scene_size)
-
-
-def preview_parser() -> argparse.ArgumentParser:
+def _preview_module():
     from .preview import command
 
-    return _subcommand_parser(command)
-
-
-def run_preview(argv: list[str]) -> int:
-    from .preview.command import preview_command
-
-    a = preview_parser().parse_args(argv)
-    with thread_count(a.threads):
-        return preview_command(a, render_options, scene_size)
+    return command
 
 
 def _warmup(name: str):
@@ -365,8 +354,11 @@ def _warmup(name: str):
     return getattr(warmup, name)
 
 
+run_course = _threaded(course_parser, _run_course)
+run_render = _threaded(render_parser, _run_render)
 COMMANDS = {"raycast": (run_course, course_parser), "render": (run_render, render_parser),
-            "explain": (run_explain, explain_parser), "preview": (run_preview, preview_parser),
+            "explain": _subcommand(_explain_module, "explain_command"),
+            "preview": _subcommand(_preview_module, "preview_command"),
             "warmup": (lambda argv: _warmup("command")(argv), lambda: _warmup("parser")())}
 USAGE = ("usage: durer {raycast,render,explain,preview,warmup} ...\n"
          "  durer raycast -input SCENE -size W H -output OUT [...]   the MIT 6.837 course's flags\n"

@@ -21,8 +21,9 @@ from . import pinhole
 from . import query_normals as qn
 from .accel import batches
 from .accel.batches import RayBatch
-from .accel.bvh import Shape, TwoLevelBVH, flat_image_width
+from .accel.bvh import Shape, TwoLevelBVH
 from .accel.distance import DEFAULT_BETA, DEFAULT_ORDER, SIGN_BETA, DistanceIndex
+from .accel.widths import flat_image_width
 from .kernels.bvh.trace import image_width
 from .kernels.common import SPHERE
 from .query_args import (

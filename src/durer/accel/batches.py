@@ -23,7 +23,6 @@ from ..kernels.bvh.queries import (
 from ..kernels.threads import run_pieces
 from .bvh import INVALID_ID, TwoLevelBVH
 
-_NO_PLANES = (np.zeros((0, 3)), np.zeros(0))
 _NO_MAP = np.zeros(0, np.int32)
 _IDENTITY = np.ascontiguousarray(np.eye(4)[:3])
 
@@ -72,11 +71,11 @@ def _one_level(tree: TwoLevelBVH) -> tuple | None:
     if len(tree.instances) == 1:
         w2o = np.ascontiguousarray(p.w2o[0])
         moved = not np.array_equal(w2o, np.eye(4)[:3])
-        return w2o, moved, (*p.blas, *_NO_PLANES, p.stack), (_NO_MAP, _NO_MAP, _NO_MAP, _NO_MAP)
+        return w2o, moved, tree.one_level_tree().args, (_NO_MAP, _NO_MAP, _NO_MAP, _NO_MAP)
     if tree.world is None:
         return None
     w = tree.world
-    return _IDENTITY, False, w.args, (w.tri_inst, w.tri_local, w.sph_inst, w.sph_prim)
+    return _IDENTITY, False, w.kernel.args, (w.tri_inst, w.tri_local, w.sph_inst, w.sph_prim)
 
 
 def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
@@ -91,11 +90,11 @@ def cast(tree: TwoLevelBVH, rays: RayBatch) -> dict:
         t[:], inst[:], prim[:], uv[:], normals[:] = np.inf, INVALID_ID, INVALID_ID, 0.0, 0.0
     elif (one := _one_level(tree)) is not None:
         w2o, moved, args, maps = one
-        rays.run(closest_one_level, w2o, moved, *args, rays.width, rays.band(), *maps, *_normal_args(tree),
+        rays.run(closest_one_level, w2o, moved, args, rays.width, rays.band(), *maps, *_normal_args(tree),
                  t, inst, prim, uv, normals)
     else:
         p = tree.packed
-        rays.run(closest_two_level, *p.args, rays.width, rays.band(), p.inst_shape, p.tri_off, p.normals, p.inst_sign,
+        rays.run(closest_two_level, p.args, rays.width, rays.band(), p.inst_shape, p.tri_off, p.normals, p.inst_sign,
                  t, inst, prim, uv, normals)
     return {"t_hit": t, "geometry_ids": inst, "primitive_ids": prim, "primitive_uvs": uv,
             "primitive_normals": normals}
@@ -108,9 +107,9 @@ def occluded(tree: TwoLevelBVH, rays: RayBatch) -> np.ndarray:
         return out
     if (one := _one_level(tree)) is not None:
         w2o, moved, args, _ = one
-        rays.run(occluded_one_level, w2o, moved, *args, rays.width, rays.band(), out)
+        rays.run(occluded_one_level, w2o, moved, args, rays.width, rays.band(), out)
     else:
-        rays.run(occluded_two_level, *tree.packed.args, rays.width, rays.band(), out)
+        rays.run(occluded_two_level, tree.packed.args, rays.width, rays.band(), out)
     return out
 
 
@@ -123,7 +122,7 @@ def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
     empty = dict(t=f, inst=i32, kind=i8, prim=i32, u=f, v=f)
     if not tree.instances:
         return counts, (empty if fill else None)
-    args = (*tree.packed.args, rays.band())
+    args = (tree.packed.args, rays.band())
     rays.run(crossings_two_level, *args, np.zeros(n, np.int64), f, i32, i8, i32, f, f, counts)
     if not fill:
         return counts, None
@@ -140,5 +139,5 @@ def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
 
 def _normal_args(tree: TwoLevelBVH) -> tuple:
     p = tree.packed
-    return p.inst_shape, p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas[4]
+    return p.inst_shape, p.tri_off, p.normals, p.w2o, p.inst_sign, p.blas.sph_center
 

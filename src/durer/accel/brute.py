@@ -10,10 +10,10 @@ import numpy as np
 
 from ..kernels.brute import any_hit_all, closest_hit_all
 from .compile import CompiledScene
-from .hits import Hits, per_ray
+from .hits import Hits, QueriedOnly, ray_arrays
 
 
-class BruteForce:
+class BruteForce(QueriedOnly):
     """Tests every ray against every primitive; the reference that accelerators must agree with."""
 
     name = "brute"
@@ -27,21 +27,12 @@ class BruteForce:
                 cs.plane_normal, cs.plane_offset)
 
     def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> Hits:
-        n = len(origins)
-        h = Hits.empty(n)
-        closest_hit_all(np.ascontiguousarray(origins, dtype=np.float64),
-                        np.ascontiguousarray(directions, dtype=np.float64),
-                        per_ray(t_min, n), per_ray(t_max, n), *self._geometry(), h.t, h.kind, h.prim, h.u, h.v)
+        h = Hits.empty(len(origins))
+        closest_hit_all(*ray_arrays(origins, directions, t_min, t_max), *self._geometry(), h.t, h.kind, h.prim, h.u,
+                        h.v)
         return h
 
-    def kernel_tree(self) -> None:
-        """No tree: integrators use closest_hit / any_hit (the Accelerator protocol)."""
-        return None
-
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
-        n = len(origins)
-        out = np.empty(n, dtype=np.bool_)
-        any_hit_all(np.ascontiguousarray(origins, dtype=np.float64),
-                    np.ascontiguousarray(directions, dtype=np.float64),
-                    per_ray(t_min, n), per_ray(t_max, n), *self._geometry(), out)
+        out = np.empty(len(origins), dtype=np.bool_)
+        any_hit_all(*ray_arrays(origins, directions, t_min, t_max), *self._geometry(), out)
         return out

@@ -17,18 +17,20 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from ..kernels.bvh.build import build_wide_bvh, item_boxes, leaf_items
 from ..kernels.bvh.instance_packets import any_hit_instances, closest_hit_instances
 from ..kernels.bvh.instances import rays_to_object
-from ..kernels.bvh.layout import MAX_LEAF, TILE, leaf_codes, leaf_slots, stack_size_for
+from ..kernels.bvh.layout import MAX_LEAF, leaf_codes, leaf_slots, stack_size_for
 from ..kernels.bvh.trace import any_hit_bvh, closest_hit_bvh
 from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.threads import run_blocks
 from .compile import CompiledScene
-from .hits import Hits, per_ray
+from .hits import Hits, ray_arrays
+from .widths import checked_width
 
 INVALID_ID = -1
 
@@ -122,13 +124,59 @@ class Shape:
         return out
 
 
+class TreeArrays(NamedTuple):
+    """One or more trees in shared arrays as every BVH kernel takes them, in this order (kernels/bvh/layout.py).
+    The kernels take the fields as positional arguments (`*arrays`): a tuple argument costs them speed and a
+    compiled variant of its own (benchmarks/README.md, kernel_args.py)."""
+
+    bounds: np.ndarray      # (N * 24,) float32, flat
+    child: np.ndarray       # (N, 4) int32 child codes
+    leaf_prim: np.ndarray   # (M,) int32: triangle id, or -(sphere + 1)
+    leaf_tri: np.ndarray    # (M * 9,) float32 or float64, flat
+    sph_center: np.ndarray  # (S, 3)
+    sph_radius: np.ndarray  # (S,)
+    sph_w2o: np.ndarray     # (S, 3, 4) world-to-object of each sphere
+
+
+class TopArrays(NamedTuple):
+    """The tree over instances (same layout; its leaf slots name instances), in the two-level kernels' order."""
+
+    bounds: np.ndarray      # (N * 24,) float32, flat
+    child: np.ndarray       # (N, 4) int32
+    leaf: np.ndarray        # (K,) instance of each leaf slot
+    inst_root: np.ndarray   # (K,) root node of each instance's tree in the bottom level's arrays
+    w2o: np.ndarray         # (K, 3, 4) world-to-object of each instance
+
+
+class KernelTree(NamedTuple):
+    """The one-level kernels' tree arguments (kernels/bvh/trace.py order): a tree, the planes beside it, the stack
+    size its walks need."""
+
+    tree: TreeArrays
+    pl_normal: np.ndarray   # (P, 3)
+    pl_offset: np.ndarray   # (P,)
+    stack_size: int
+
+    @property
+    def args(self) -> tuple:
+        """The positional arguments, flat: the kernels' order."""
+        return (*self.tree, self.pl_normal, self.pl_offset, self.stack_size)
+
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in (*self.tree, self.pl_normal, self.pl_offset))
+
+
+_NO_PLANES = (np.zeros((0, 3)), np.zeros(0))
+
+
 @dataclass
 class TwoLevelArrays:
     """The shapes' trees concatenated into shared arrays (the bottom level) and the tree over instances (the top
     level), in the argument order of kernels/bvh/instances.py."""
 
-    top: tuple        # (bounds flat, child, leaf (instance ids), instance root nodes, world-to-object (K,3,4))
-    blas: tuple       # (bounds flat, child, leaf_prim, leaf_tri flat, sphere centres, radii, sphere w2o)
+    top: TopArrays
+    blas: TreeArrays
     stack: int
     tri_off: np.ndarray     # (shapes+1,) first triangle of each shape in `normals`
     normals: np.ndarray     # (F, 3) object-space triangle normals of every shape
@@ -146,7 +194,7 @@ class WorldTree:
     """Every instance's primitives in one world-space tree (when no shape is shared), with the maps from its
     triangle and sphere ids back to (instance, primitive)."""
 
-    args: tuple             # one-level kernel arguments: tree, spheres, (no) planes, stack size
+    kernel: KernelTree      # the world tree (no planes)
     tri_inst: np.ndarray
     tri_local: np.ndarray
     sph_inst: np.ndarray
@@ -219,8 +267,8 @@ class TwoLevelBVH:
         depth = max([top_depth] + [s.tree.depth for s in shapes])
         self._sph_off = np.array(sph_off, np.int64)
         return TwoLevelArrays(
-            top=(top_bounds.reshape(-1), top_child, top_leaf, inst_root, w2o),
-            blas=(bounds.reshape(-1), child_all, lp, lt.reshape(-1), sph_c, sph_r, sph_w2o),
+            top=TopArrays(top_bounds.reshape(-1), top_child, top_leaf, inst_root, w2o),
+            blas=TreeArrays(bounds.reshape(-1), child_all, lp, lt.reshape(-1), sph_c, sph_r, sph_w2o),
             stack=stack_size_for(depth), tri_off=np.array(tri_off + [n_tri], np.int64),
             normals=cat([s.normals for s in shapes]) if shapes else np.zeros((0, 3)),
             inst_shape=np.array([s for s, _ in instances], dtype=np.int64), w2o=w2o,
@@ -253,10 +301,11 @@ class TwoLevelBVH:
         tree = build_tree(cat(tris) if tris else np.zeros((0, 3, 3)), np.array(s_lo).reshape(-1, 3),
                           np.array(s_hi).reshape(-1, 3))
         return WorldTree(
-            args=(tree.bounds.reshape(-1), tree.child, tree.leaf_prim, tree.leaf_tri.reshape(-1),
-                  cat(sph_c) if sph_c else np.zeros((0, 3)), cat(sph_r) if sph_r else np.zeros(0),
-                  cat(sph_w2o) if sph_w2o else np.zeros((0, 3, 4)), np.zeros((0, 3)), np.zeros(0),
-                  tree.stack_size),
+            kernel=KernelTree(TreeArrays(tree.bounds.reshape(-1), tree.child, tree.leaf_prim,
+                                         tree.leaf_tri.reshape(-1), cat(sph_c) if sph_c else np.zeros((0, 3)),
+                                         cat(sph_r) if sph_r else np.zeros(0),
+                                         cat(sph_w2o) if sph_w2o else np.zeros((0, 3, 4))),
+                              *_NO_PLANES, tree.stack_size),
             tri_inst=cat(tri_inst) if tri_inst else np.zeros(0, np.int32),
             tri_local=cat(tri_local) if tri_local else np.zeros(0, np.int32),
             sph_inst=np.array(sph_inst, np.int32), sph_prim=np.array(sph_prim, np.int32),
@@ -266,11 +315,18 @@ class TwoLevelBVH:
     def nbytes(self) -> int:
         """Bytes of the packed trees, the tree over instances and, when no shape is shared, the world tree."""
         p, w = self.packed, self.world
-        extra = 0 if w is None else sum(a.nbytes for a in (*w.args[:-1], w.tri_inst, w.tri_local))
+        extra = 0 if w is None else w.kernel.nbytes + w.tri_inst.nbytes + w.tri_local.nbytes
         return sum(a.nbytes for a in (*p.top, *p.blas)) + extra
 
+    def one_level_tree(self) -> KernelTree | None:
+        """The tree the one-level kernels trace, or None when a shape is shared: a lone instance's own tree (rays
+        moved into its object space), or the world tree of several instances."""
+        if len(self.instances) == 1:
+            return KernelTree(self.packed.blas, *_NO_PLANES, self.packed.stack)
+        return None if self.world is None else self.world.kernel
+
     def _one_level(self, o, d):
-        """Rays and tree arguments for the one-level packet kernels, or None when a shape is shared.
+        """Rays and tree for the one-level packet kernels, or None when a shape is shared.
 
         A single instance (one mesh or sphere: the common case) is traced in its own tree, with the rays moved
         into its object space by the two-level kernels' own arithmetic (t is unchanged); several instances of
@@ -281,9 +337,8 @@ class TwoLevelBVH:
                 oo, dd = np.empty_like(o), np.empty_like(d)
                 rays_to_object(o, d, w2o, oo, dd)
                 o, d = oo, dd
-            no_planes = (np.zeros((0, 3)), np.zeros(0))
-            return o, d, (*self.packed.blas, *no_planes, self.packed.stack)
-        return None if self.world is None else (o, d, self.world.args)
+        tree = self.one_level_tree()
+        return None if tree is None else (o, d, tree)
 
     def _instance_ids(self, kind, prim, inst) -> None:
         """Turn the one-level kernels' triangle and sphere ids (prim) into instances (inst) and their own
@@ -308,7 +363,8 @@ class TwoLevelBVH:
         prim, u, v = np.empty(n, np.int32), np.empty(n), np.empty(n)
         one = self._one_level(o, d) if n and self.instances else None
         if one is not None:
-            run_blocks(closest_hit_bvh, n, one[0], one[1], t_min, t_max, *one[2], width, t, kind, prim, u, v)
+            oo, dd, tree = one
+            run_blocks(closest_hit_bvh, n, oo, dd, t_min, t_max, *tree.args, width, t, kind, prim, u, v)
             self._instance_ids(kind, prim, inst)
         elif self.instances and n:
             run_blocks(closest_hit_instances, n, o, d, t_min, t_max, *self.packed.args, width, t, inst, kind,
@@ -322,61 +378,14 @@ class TwoLevelBVH:
         out = np.zeros(len(o), dtype=np.bool_)
         one = self._one_level(o, d) if len(o) and self.instances else None
         if one is not None:
-            run_blocks(any_hit_bvh, len(o), one[0], one[1], t_min, t_max, *one[2], width, out)
+            oo, dd, tree = one
+            run_blocks(any_hit_bvh, len(o), oo, dd, t_min, t_max, *tree.args, width, out)
         elif self.instances and len(o):
             run_blocks(any_hit_instances, len(o), o, d, t_min, t_max, *self.packed.args, width, out)
         return out
 
 
 # ---------------------------------------------------------------------------------------- the renderer's accelerator
-_PROBE = 16384  # leading rays looked at to find the row length of flat rays (widths up to this)
-
-
-def flat_image_width(o: np.ndarray, d: np.ndarray) -> int:
-    """The width of the image whose rows flat (N, 3) rays follow (a camera's rays reshaped to (N, 3), row by
-    row; float32 or float64, any strides), so the kernels can trace them in 4 x 4 tiles as they do an
-    (H, W, ...) array; 0 when they do not look like one: the first jump between consecutive rays (4x the
-    first step) must end a row whose length is a multiple of 4 dividing N in whole 4-row bands, and 64 rays
-    spread over the batch must lie as close to the ray one row below as to their neighbour. Only speed depends
-    on the answer: the packet kernels find the same hits in any order (t to the bit)."""
-    n = len(o)
-    if n < TILE * TILE * 4:
-        return 0
-    k = min(n, _PROBE + 1)
-    extent = float(np.ptp(o[:257].astype(np.float64), axis=0).max())
-    scale = 1.0 / extent if extent > 0.0 else 0.0  # origins count in units of the first rays' spread
-
-    def gap(a, b):  # in float64 whatever the rays' type (float32 query rays: the same answer as converted ones)
-        o_a, d_a = o[a].astype(np.float64), d[a].astype(np.float64)
-        return np.abs(o_a - o[b]).sum(axis=-1) * scale + np.abs(d_a - d[b]).sum(axis=-1)
-
-    base = float(gap(0, 1))
-    if not base > 0.0:
-        return 0
-    jumps = np.zeros(0, np.int64)
-    for m in (257, 2049, k):  # widening windows: a short row is found without looking at 16k rays
-        m = min(m, k)
-        jumps = np.flatnonzero(gap(slice(0, m - 1), slice(1, m)) > 4.0 * base)
-        if len(jumps) or m == k:
-            break
-    if len(jumps) == 0:
-        return 0
-    w = int(jumps[0]) + 1
-    if w % TILE or n % (TILE * w):
-        return 0
-    i = np.linspace(0, n - w - 1, 64).astype(np.int64)
-    return w if bool(np.all(gap(i, i + w) <= 4.0 * base)) else 0
-
-
-def _checked_width(width: int, o: np.ndarray, d: np.ndarray) -> int:
-    """width if the rays form whole rows of 4 x 4 tiles that wide; not given (0): the width flat_image_width
-    finds (a renderer's camera rays, row by row); else 0 (rays in their given order)."""
-    width, n = int(width), len(o)
-    if width == 0:
-        return flat_image_width(o, d)
-    return width if width > 0 and width % TILE == 0 and n % (TILE * width) == 0 else 0
-
-
 class BVHAccelerator:
     """The renderer's default accelerator: closest_hit / any_hit with the same Hits semantics as BruteForce.
 
@@ -408,24 +417,24 @@ class BVHAccelerator:
         return self.tree.nbytes + (self.instances.nbytes if self.instances is not None else 0)
 
     def kernel_tree(self) -> tuple | None:
-        """The one-level tree's kernel arrays (the Accelerator protocol); None with instances (two-level)."""
-        return self._args() if self.instances is None else None
+        """The one-level tree's kernel arrays as a plain tuple (the Accelerator protocol: fused kernels take it
+        whole, and a named tuple would be a type of its own to them); None with instances (two-level)."""
+        return self._args().args if self.instances is None else None
 
-    def _args(self):
+    def _args(self) -> KernelTree:
         cs, tr = self.cs, self.tree
-        return (tr.bounds.reshape(-1), tr.child, tr.leaf_prim, tr.leaf_tri.reshape(-1), cs.sphere_center,
-                cs.sphere_radius, cs.sphere_world_to_object, cs.plane_normal, cs.plane_offset, tr.stack_size)
+        return KernelTree(TreeArrays(tr.bounds.reshape(-1), tr.child, tr.leaf_prim, tr.leaf_tri.reshape(-1),
+                                     cs.sphere_center, cs.sphere_radius, cs.sphere_world_to_object),
+                          cs.plane_normal, cs.plane_offset, tr.stack_size)
 
     def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> Hits:
         """width > 0 says the rays are an image that wide, row by row (both sides multiples of 4): coherent rays
         are then traced in 4 x 4 tiles, which is faster."""
         n = len(origins)
         h = Hits.empty(n)
-        o = np.ascontiguousarray(origins, dtype=np.float64)
-        d = np.ascontiguousarray(directions, dtype=np.float64)
-        lo, hi = per_ray(t_min, n), per_ray(t_max, n)
-        width = _checked_width(width, o, d)
-        run_blocks(closest_hit_bvh, n, o, d, lo, hi, *self._args(), width, h.t, h.kind, h.prim, h.u, h.v)
+        o, d, lo, hi = ray_arrays(origins, directions, t_min, t_max)
+        width = checked_width(width, o, d)
+        run_blocks(closest_hit_bvh, n, o, d, lo, hi, *self._args().args, width, h.t, h.kind, h.prim, h.u, h.v)
         if self.instances is not None and n:
             self._closest_instances(o, d, lo, np.minimum(hi, h.t), h, width)
         return h
@@ -448,10 +457,8 @@ class BVHAccelerator:
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)
-        o = np.ascontiguousarray(origins, dtype=np.float64)
-        d = np.ascontiguousarray(directions, dtype=np.float64)
-        lo, hi = per_ray(t_min, n), per_ray(t_max, n)
-        run_blocks(any_hit_bvh, n, o, d, lo, hi, *self._args(), _checked_width(width, o, d), out)
+        o, d, lo, hi = ray_arrays(origins, directions, t_min, t_max)
+        run_blocks(any_hit_bvh, n, o, d, lo, hi, *self._args().args, checked_width(width, o, d), out)
         if self.instances is not None and n and not out.all():
             rest = np.flatnonzero(~out)
             out[rest] = self.instances.any_hit(np.ascontiguousarray(o[rest]), np.ascontiguousarray(d[rest]),

@@ -21,7 +21,8 @@ import time
 
 import numpy as np
 
-from ..kernels.common import SPHERE, TRIANGLE
+from ..kernels.bvh.layout import WIDTH
+from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.points.closest import closest_points_instances
 from ..kernels.points.order import grid_bits, sort_by_cell
 from ..kernels.points.winding import (
@@ -127,15 +128,14 @@ class DistanceIndex:
         n = len(points)
         points, perm = cell_order(points)
         p = self.tree.packed
-        top_bounds, top_child, top_leaf, inst_root, w2o = p.top
-        bounds, child, leaf_prim, leaf_tri = p.blas[:4]
+        top, b = p.top, p.blas
         d2, inst = np.empty(n), np.empty(n, np.int32)
         kind, prim = np.empty(n, np.int8), np.empty(n, np.int32)
         q, uv = np.empty((n, 3)), np.empty((n, 2))
         if n:
-            run_blocks(closest_points_instances, n, points, top_bounds, top_child, top_leaf, inst_root, w2o,
-                       self.o2w, self.scale, self.inst_ell, self.ell_center, self.ell_frame, self.ell_semi, bounds,
-                       child, leaf_prim, leaf_tri, p.stack, d2, inst, kind, prim, q, uv)
+            run_blocks(closest_points_instances, n, points, *top, self.o2w, self.scale, self.inst_ell,
+                       self.ell_center, self.ell_frame, self.ell_semi, b.bounds, b.child, b.leaf_prim, b.leaf_tri,
+                       p.stack, d2, inst, kind, prim, q, uv)
         return restore_order(perm, d2, inst, kind, prim, q, uv)
 
     def normals(self, q: np.ndarray, inst: np.ndarray, kind: np.ndarray, prim: np.ndarray) -> np.ndarray:
@@ -143,7 +143,7 @@ class DistanceIndex:
         moved vertices would be), ellipsoids outward (the object-space radius by the inverse transpose). NumPy,
         no Numba parallel region, so forked processes may call it."""
         p = self.tree.packed
-        k = np.where(kind != 0, inst, 0)
+        k = np.where(kind != MISS, inst, 0)
         w2o = p.w2o[k][:, :, :3] if len(p.w2o) else np.zeros((len(q), 3, 3))
         obj = np.zeros((len(q), 3))
         tri = kind == TRIANGLE
@@ -151,7 +151,7 @@ class DistanceIndex:
         sph = kind == SPHERE
         if sph.any():
             local = np.einsum("nij,nj->ni", p.w2o[k[sph]][:, :, :3], q[sph]) + p.w2o[k[sph]][:, :, 3]
-            obj[sph] = local - p.blas[4][self.inst_sphere[k[sph]]]
+            obj[sph] = local - p.blas.sph_center[self.inst_sphere[k[sph]]]
         n = np.einsum("nji,nj->ni", w2o, obj)  # the inverse transpose of object-to-world is w2o transposed
         length = np.linalg.norm(n, axis=1, keepdims=True)
         return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
@@ -163,12 +163,12 @@ class DistanceIndex:
         vector, area and second moment (kernels/points/winding.lane_moments packed by far_field_table), computed on
         first use."""
         if self._moments is None:
-            bounds, child, leaf_prim, leaf_tri = self.tree.packed.blas[:4]
-            m = len(child) * 4
+            b = self.tree.packed.blas
+            m = len(b.child) * WIDTH
             table = np.zeros((m, FAR_FLOATS))
             if m:
                 raw = (np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 9)), np.zeros(m), np.zeros(m))
-                lane_moments(bounds, child, leaf_prim, leaf_tri, *raw)
+                lane_moments(b.bounds, b.child, b.leaf_prim, b.leaf_tri, *raw)
                 far_field_table(*raw, table)
             self._moments = table
         return self._moments
@@ -185,12 +185,12 @@ class DistanceIndex:
         n = len(points)
         points, perm = cell_order(points)
         p = self.tree.packed
-        _, child, leaf_prim, leaf_tri, sph_c, sph_r = p.blas[:6]
+        b = p.blas
         w, err = np.empty(n), np.empty(n)
         if n:
-            run_blocks(winding_numbers_instances, n, points, p.top[3], p.w2o, self.sign, self.inst_sphere, sph_c,
-                       sph_r, child, leaf_prim, leaf_tri, self.moments, float(beta), int(order), bool(want_err),
-                       p.stack, w, err)
+            run_blocks(winding_numbers_instances, n, points, p.top.inst_root, p.w2o, self.sign, self.inst_sphere,
+                       b.sph_center, b.sph_radius, b.child, b.leaf_prim, b.leaf_tri, self.moments, float(beta),
+                       int(order), bool(want_err), p.stack, w, err)
         return restore_order(perm, w, err)
 
     def crossing_votes(self, points: np.ndarray, dirs: np.ndarray) -> np.ndarray:
@@ -202,7 +202,7 @@ class DistanceIndex:
         if len(points):
             lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
             run_blocks(crossing_votes_instances, len(points), points, np.ascontiguousarray(dirs, np.float64),
-                       (lo + hi) / 2, p.top[3], p.w2o, *p.blas[:7], p.stack, votes)
+                       (lo + hi) / 2, p.top.inst_root, p.w2o, *p.blas, p.stack, votes)
         return restore_order(perm, votes)[0]
 
     @property

@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kernels.common import SPHERE, TRIANGLE
 from ..kernels.course.grid import any_hit_grid, build_cells, closest_hit_grid, first_occupied_cell, walk_cells
 from ..options import check_grid
 from .compile import CompiledScene
-from .hits import Hits, per_ray
+from .hits import Hits, QueriedOnly, per_ray, ray_arrays
 from .stats import RayStats
 
 
@@ -45,7 +46,7 @@ def _sphere_boxes(cs: CompiledScene, as_box: np.ndarray) -> tuple[np.ndarray, np
     return np.where(as_box[:, None], wlo, lo), np.where(as_box[:, None], whi, hi)
 
 
-class GridAccelerator:
+class GridAccelerator(QueriedOnly):
     """A uniform grid of nx x ny x nz cells over the scene's bounded primitives, walked with 3D-DDA.
 
     `sphere_as_box` (S,) says which spheres go in by their box (default: those under a Transform in the scene
@@ -108,10 +109,11 @@ class GridAccelerator:
         return np.diff(self.start).reshape(nz, ny, nx)
 
     def cell_items(self, i: int, j: int, k: int) -> list[tuple[int, int]]:
-        """(kind, index) of the primitives in cell (i, j, k): kind 1 triangle, 2 sphere."""
+        """(kind, index) of the primitives in cell (i, j, k): kind TRIANGLE or SPHERE (kernels/common.py)."""
         nx, ny = int(self.dims[0]), int(self.dims[1])
         c = (k * ny + j) * nx + i
-        return [(1, int(x)) if x >= 0 else (2, int(-x - 1)) for x in self.items[self.start[c]:self.start[c + 1]]]
+        items = self.items[self.start[c]:self.start[c + 1]]
+        return [(TRIANGLE, int(x)) if x >= 0 else (SPHERE, int(-x - 1)) for x in items]
 
     def walk(self, origin, direction, t_min: float = 0.0, t_max: float = np.inf):
         """The 3D-DDA walk of one ray, as the kernels take it: cells (K,3) as (i, j, k) in order, the t where
@@ -138,25 +140,17 @@ class GridAccelerator:
         n = len(origins)
         h = Hits.empty(n)
         count, tests, cells = self._counters(n)
-        closest_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
-                         np.ascontiguousarray(directions, dtype=np.float64),
-                         per_ray(t_min, n), per_ray(t_max, n), *self._geometry(),
+        closest_hit_grid(*ray_arrays(origins, directions, t_min, t_max), *self._geometry(),
                          h.t, h.kind, h.prim, h.u, h.v, count, tests, cells)
         if count:
             self.stats.add(n, False, int(tests.sum()), int(cells.sum()))
         return h
 
-    def kernel_tree(self) -> None:
-        """No tree: integrators query the grid (the Accelerator protocol), so its -stats count every ray."""
-        return None
-
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0) -> np.ndarray:
         n = len(origins)
         out = np.empty(n, dtype=np.bool_)
         count, tests, cells = self._counters(n)
-        any_hit_grid(np.ascontiguousarray(origins, dtype=np.float64),
-                     np.ascontiguousarray(directions, dtype=np.float64),
-                     per_ray(t_min, n), per_ray(t_max, n), *self._geometry(), out, count, tests, cells)
+        any_hit_grid(*ray_arrays(origins, directions, t_min, t_max), *self._geometry(), out, count, tests, cells)
         if count:
             self.stats.add(n, True, int(tests.sum()), int(cells.sum()))
         return out

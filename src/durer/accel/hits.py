@@ -41,6 +41,23 @@ def per_ray(value, n: int) -> np.ndarray:
     return np.array(np.broadcast_to(a, (n,)))
 
 
+def ray_arrays(origins, directions, t_min, t_max) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A query's rays as the kernels take them: origins and directions (N, 3) contiguous float64, and per-ray
+    t_min and t_max (per_ray)."""
+    n = len(origins)
+    return (np.ascontiguousarray(origins, dtype=np.float64), np.ascontiguousarray(directions, dtype=np.float64),
+            per_ray(t_min, n), per_ray(t_max, n))
+
+
+class QueriedOnly:
+    """Base of the accelerators that integrators reach only through closest_hit / any_hit: no tree of theirs is
+    walked inside a fused kernel (brute force and the grid have none; counted rays must all pass the counter)."""
+
+    def kernel_tree(self) -> None:
+        """None (the Accelerator protocol): integrators use closest_hit / any_hit."""
+        return None
+
+
 class Accelerator(Protocol):
     """What integrators ask of a scene's geometry: BruteForce, BVHAccelerator and GridAccelerator answer it.
 

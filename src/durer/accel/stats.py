@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .hits import Accelerator
+from .hits import Accelerator, QueriedOnly
 
 
 @dataclass
@@ -76,7 +76,7 @@ class RayStats:
         return "\n".join(lines)
 
 
-class CountingAccelerator:
+class CountingAccelerator(QueriedOnly):
     """Wraps an accelerator that does not count, to count its rays for -stats.
 
     Brute force tests every primitive for every ray, as the course's RayCast loop does, so its intersections
@@ -99,10 +99,6 @@ class CountingAccelerator:
     def closest_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0):
         self.stats.add(len(origins), False, self._tests(len(origins)))
         return self.accel.closest_hit(origins, directions, t_min, t_max, width)
-
-    def kernel_tree(self) -> None:
-        """None: every ray must go through the counted queries, never a fused kernel's own walk."""
-        return None
 
     def any_hit(self, origins, directions, t_min=0.0, t_max=np.inf, width: int = 0):
         self.stats.add(len(origins), True, self._tests(len(origins)))

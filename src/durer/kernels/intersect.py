@@ -19,25 +19,33 @@ _U3, _U6 = np.uint64(3), np.uint64(6)
 
 
 @nb.njit(cache=True, inline="always")
+def ordered_roots(a, b, c):
+    """(real, t0, t1): the roots t0 <= t1 of a t^2 + 2 b t + c = 0 in the numerically stable pair q / a, c / q with
+    q = -(b + sign(b) sqrt(b^2 - a c)); real is False (roots inf) when there are none or a = 0, and q = 0 gives
+    t0 = t1 = 0. Shared by the sphere and the cylinder."""
+    disc = b * b - a * c
+    if disc < 0.0 or a == 0.0:
+        return False, INF, INF
+    sq = math.sqrt(disc)
+    q = -(b + sq) if b >= 0.0 else -(b - sq)
+    if q == 0.0:
+        return True, 0.0, 0.0
+    t0, t1 = q / a, c / q
+    if t0 > t1:
+        t0, t1 = t1, t0
+    return True, t0, t1
+
+
+@nb.njit(cache=True, inline="always")
 def intersect_sphere(ox, oy, oz, dx, dy, dz, cx, cy, cz, r, t_min, t_max):
     """Smallest root t of |o + t d - c| = r with t_min < t < t_max (the algebraic method of the lecture)."""
     px, py, pz = ox - cx, oy - cy, oz - cz
     a = dx * dx + dy * dy + dz * dz
     b = px * dx + py * dy + pz * dz  # half of the lecture's b
     c = px * px + py * py + pz * pz - r * r
-    disc = b * b - a * c
-    if disc < 0.0 or a == 0.0:
+    real, t0, t1 = ordered_roots(a, b, c)
+    if not real:
         return INF
-    sq = math.sqrt(disc)
-    # numerically stable pair of roots
-    q = -(b + sq) if b >= 0.0 else -(b - sq)
-    if q == 0.0:
-        t0 = t1 = 0.0
-    else:
-        t0 = q / a
-        t1 = c / q
-    if t0 > t1:
-        t0, t1 = t1, t0
     if t_min < t0 < t_max:
         return t0
     if t_min < t1 < t_max:
@@ -174,16 +182,9 @@ def intersect_cylinder(ox, oy, oz, dx, dy, dz, t_min, t_max):
     a = dx * dx + dy * dy
     b = ox * dx + oy * dy
     c = ox * ox + oy * oy - 1.0
-    disc = b * b - a * c
-    if disc < 0.0 or a == 0.0:
+    real, t0, t1 = ordered_roots(a, b, c)
+    if not real or (t0 == 0.0 and t1 == 0.0):  # a tangent ray from the wall itself
         return INF
-    sq = math.sqrt(disc)
-    q = -(b + sq) if b >= 0.0 else -(b - sq)
-    if q == 0.0:
-        return INF
-    t0, t1 = q / a, c / q
-    if t0 > t1:
-        t0, t1 = t1, t0
     if t_min < t0 < t_max and 0.0 <= oz + t0 * dz <= 1.0:
         return t0
     if t_min < t1 < t_max and 0.0 <= oz + t1 * dz <= 1.0:

@@ -30,7 +30,8 @@ class Feature:
     seconds: int
 
 
-BVH = Feature("the BVH", ("kernels.bvh.build", "kernels.bvh.trace", "kernels.bvh.packet", "kernels.bvh.single"), 15)
+BVH = Feature("the BVH", ("kernels.bvh.build", "kernels.bvh.trace", "kernels.bvh.chunks", "kernels.bvh.packet",
+                               "kernels.bvh.single"), 15)
 # the path tracer builds the BVH but walks it in its own fused kernel (kernels/path/wavefront.py), never through
 # bvh.trace: a path-only install that asked for all of BVH announced a compile on every run
 BUILD = Feature("the BVH build", ("kernels.bvh.build",), 5)

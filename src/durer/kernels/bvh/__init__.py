@@ -4,8 +4,9 @@ This docstring is the one map of the BVH's kernels; each module says the rest ab
 
 **The tree** (layout.py). A 4-wide tree: each node holds its four children's boxes (float32, rounded outwards,
 rows LO_X .. HI_Z of NODE_FLOATS floats) and their codes: > 0 an inner node, 0 an empty lane, < 0 a leaf
-(`leaf_range(code)` gives its slots). A leaf's slots index `leaf_prim` (triangle id, or -(sphere + 1)) and
-`leaf_tri` (the triangle's nine coordinates, float32 or float64, always widened to float64 before arithmetic).
+(`leaf_code(start, count)` makes one, `leaf_range(code)` gives its slots). A leaf's slots index `leaf_prim`
+(triangle id, or -(sphere + 1)) and `leaf_tri` (the triangle's nine coordinates, float32 or float64, always widened
+to float64 before arithmetic).
 build.py makes it: a binned-SAH binary tree collapsed to 4 wide, subtrees on threads.
 
 **One ray** (single.py, simd.py). `ray_setup` computes the reciprocal direction and the watertight test's shear
@@ -16,19 +17,22 @@ triangle test, or the sphere in its object space); `pop_closer` drops stacked no
 `blas_closest`, `blas_any` and `blas_all` are the three walks (closest hit, any hit, every hit);
 `planes_closest` adds the unbounded planes, which live beside the tree.
 
-**Packets** (packet.py). Sixteen coherent rays (a 4 x 4 image tile, or 16 consecutive rays) that share
-direction signs and shear axes walk together: `packet_setup` checks they are coherent and takes their extremes,
-`packet_traverse` tests each child box once for the packet with interval bounds no single ray can beat, and
-tests a leaf's triangles against all live rays in a vectorised loop with each ray's own arithmetic, so every ray
-gets the one-ray answer to the bit.
+**Packets** (chunks.py, packet.py). Sixteen coherent rays (a 4 x 4 image tile, or 16 consecutive rays) that share
+direction signs and shear axes walk together: `chunks.packet_setup` checks they are coherent and fills the packet's
+rows (each ray's constants, the packet's extremes); `packet_traverse` pops a node (`packet_pop`), tests each child
+box once for the packet with interval bounds no single ray can beat (`packet_node`), tests a leaf's triangles
+against all live rays in a vectorised loop with each ray's own arithmetic (`_edges`), so every ray gets the one-ray
+answer to the bit, and pushes the inner children (`push_inner`).
 
-**Batches** (trace.py). `closest_hit_bvh` / `any_hit_bvh` take rays in chunks of PACKET: coherent chunks as
-packets, the rest one ray at a time; threads.run_blocks spreads blocks of chunks over threads.
+**Batches** (trace.py). `closest_hit_bvh` / `any_hit_bvh` take rays in chunks of PACKET (`chunks.chunk_rays`):
+coherent chunks as packets, the rest one ray at a time; threads.run_blocks spreads blocks of chunks over threads.
 
 **Two levels** (instances.py, instance_packets.py). A mesh placed more than once is stored once: a top-level
 tree over instances (same layout; leaf slots name instances) and, at an instance leaf, the ray moved into object
 space (`to_object`, direction left unnormalised so t stays the world t) and walked through that mesh's tree, as
-a packet where the moved rays stay coherent.
+a packet where the moved rays stay coherent (`chunks.object_packet`). A packet walks the top tree with the packet
+walk's pieces (`packet_instances`); one ray walks it nearest first for the closest hit (`descend`/`pop_closer`) or
+unordered for any or every hit (`next_instance`).
 
 **The query API's bands** (bands.py, queries.py). The user's rays are read as given (float32 or float64, any
 strides) one cache-sized band at a time into float64 scratch, checked, traced by the walks above, and every

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..common import JIT
 from ..threads import thread_pool
-from .layout import LEAF_COUNT_BITS, MAX_LEAF
+from .layout import MAX_LEAF, WIDTH, leaf_code
 
 N_BINS = 16           # SAH bins per axis
 TRAVERSAL_COST = 2.0  # SAH: cost of a node visit (4 box tests) relative to one primitive test
@@ -247,14 +247,14 @@ def collapse_bvh4(box, left, right, start, count):
     """Turn a binary BVH into the 4-wide layout described at the top: each wide node takes up to four
     grandchildren, opening the largest-area inner child first. Returns bounds, child and the tree depth."""
     m = box.shape[0]
-    bounds = np.empty((max(m, 1), 6, 4), np.float32)
-    child = np.zeros((max(m, 1), 4), np.int32)
+    bounds = np.empty((max(m, 1), 6, WIDTH), np.float32)
+    child = np.zeros((max(m, 1), WIDTH), np.int32)
     src = np.empty(max(m, 1), np.int64)    # the binary node each wide node was made from
     depth = np.zeros(max(m, 1), np.int64)
     src[0] = 0
     nw = 1
     max_depth = 1
-    slots = np.empty(4, np.int64)
+    slots = np.empty(WIDTH, np.int64)
     w = 0
     while w < nw:
         s = src[w]
@@ -267,7 +267,7 @@ def collapse_bvh4(box, left, right, start, count):
         else:
             slots[0], slots[1] = left[s], right[s]
             ns = 2
-            while ns < 4:
+            while ns < WIDTH:
                 best = -1
                 best_area = -1.0
                 for k in range(ns):
@@ -282,7 +282,7 @@ def collapse_bvh4(box, left, right, start, count):
                 slots[best] = left[q]
                 slots[ns] = right[q]
                 ns += 1
-        for lane in range(4):
+        for lane in range(WIDTH):
             if lane < ns:
                 q = slots[lane]
                 if count[q] == 0:  # an empty tree's root
@@ -294,7 +294,7 @@ def collapse_bvh4(box, left, right, start, count):
                     bounds[w, a, lane] = np.nextafter(np.float32(box[q, a]), np.float32(-np.inf))
                     bounds[w, 3 + a, lane] = np.nextafter(np.float32(box[q, 3 + a]), np.float32(np.inf))
                 if left[q] < 0:
-                    child[w, lane] = -((start[q] << LEAF_COUNT_BITS) + count[q]) - 1
+                    child[w, lane] = leaf_code(start[q], count[q])
                 else:
                     child[w, lane] = nw
                     src[nw] = q

@@ -33,6 +33,37 @@ def to_object(w2o, ox, oy, oz, dx, dy, dz):
             m[2, 0] * dx + m[2, 1] * dy + m[2, 2] * dz)
 
 
+@nb.njit(**JIT, inline="always")
+def top_walk(top_node):
+    """The start of a ray's unordered walk over the top-level tree (next_instance): its root on the stack
+    top_node, no leaf open. The walk's state is (stack pointer, next slot of the open leaf, its end)."""
+    top_node[0] = 0
+    return 1, 0, 0
+
+
+@nb.njit(**JIT, inline="always")
+def next_instance(top_bounds, top_child, top_leaf, top_node, walk, slabs, ox, oy, oz, lo, hi):
+    """The next instance whose box the ray enters within [lo, hi], in no particular order: (instance, or -1 when
+    the walk is over, the walk's new state). slabs = ray_setup's reciprocal direction and near rows (idx, idy,
+    idz, nrx, nry, nrz). The walk of the two-level any-hit and all-hits kernels (single.next_leaf over the tree
+    of instances, then each slot of the leaf it returns)."""
+    sp, j, end = walk
+    idx, idy, idz, nrx, nry, nrz = slabs
+    while j == end:
+        leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, lo, hi)
+        if leaf == 0:
+            return -1, (sp, j, end)
+        j, end = leaf_range(leaf)
+    return top_leaf[j], (sp, j + 1, end)
+
+
+@nb.njit(**JIT, inline="always")
+def ray_slabs(ox, oy, oz, dx, dy, dz):
+    """ray_setup's part for the slab tests alone: (idx, idy, idz, nrx, nry, nrz)."""
+    idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+    return idx, idy, idz, nrx, nry, nrz
+
+
 @nb.njit(**JIT)
 def rays_to_object(origins, directions, w2o, out_o, out_d):
     """All rays moved into one instance's object space, with the arithmetic of the two-level kernels (so a
@@ -84,32 +115,25 @@ def all_hits_instances(origins, directions, t_min, t_max, top_bounds, top_child,
     fill = out_t.shape[0] > 0
     top_node = np.empty(stack_size, np.int32)
     stack_node = np.empty(stack_size, np.int32)
-    dist = np.empty(4)
     for i in range(blk0 * RAYS_PER_BLOCK, min(n, blk1 * RAYS_PER_BLOCK)):
         ox, oy, oz, dx, dy, dz = load_ray(origins, directions, i)
         lo, hi = t_min[i], t_max[i]
-        idx, idy, idz, nrx, nry, nrz, _, _, _, _, _, _, _, _, _ = ray_setup(ox, oy, oz, dx, dy, dz)
+        slabs = ray_slabs(ox, oy, oz, dx, dy, dz)
         start = offsets[i] if fill else 0
         stop = offsets[i] + counts[i] if fill else 0
         ot, ok_, op, ou, ov = out_t[start:stop], out_kind[start:stop], out_prim[start:stop], \
             out_u[start:stop], out_v[start:stop]
         total = 0
-        top_node[0] = 0
-        sp = 1
+        walk = top_walk(top_node)
         while True:
-            leaf, sp = next_leaf(top_bounds, top_child, top_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz,
-                                 lo, hi, dist)
-            if leaf == 0:
+            k, walk = next_instance(top_bounds, top_child, top_leaf, top_node, walk, slabs, ox, oy, oz, lo, hi)
+            if k < 0:
                 break
-            first, end = leaf_range(leaf)
-            for j in range(first, end):
-                k = top_leaf[j]
-                px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
-                before = total
-                total = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius,
-                                 sph_w2o, px, py, pz, qx, qy, qz, lo, hi, stack_node, dist,
-                                 ot, op, ok_, ou, ov, total)
-                if fill:
-                    for q in range(before, min(total, stop - start)):
-                        out_inst[start + q] = k
+            px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+            before = total
+            total = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                             px, py, pz, qx, qy, qz, lo, hi, stack_node, ot, op, ok_, ou, ov, total)
+            if fill:
+                for q in range(before, min(total, stop - start)):
+                    out_inst[start + q] = k
         counts[i] = total

@@ -96,9 +96,15 @@ def leaf_range(code):
     return first, first + (v & LEAF_COUNT_MASK)
 
 
+@nb.njit(**JIT, inline="always")
+def leaf_code(start, count):
+    """The child code of a leaf holding slots start..start+count (leaf_range inverts it)."""
+    return -((start << LEAF_COUNT_BITS) + count) - 1
+
+
 def leaf_codes(start: np.ndarray, count: np.ndarray) -> np.ndarray:
-    """Child codes of leaves holding slots start..start+count (NumPy; leaf_slots and leaf_range invert it)."""
-    return -((np.asarray(start, np.int64) << LEAF_COUNT_BITS) + count) - 1
+    """leaf_code for NumPy arrays (leaf_slots inverts it)."""
+    return leaf_code.py_func(np.asarray(start, np.int64), count)
 
 
 def leaf_slots(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

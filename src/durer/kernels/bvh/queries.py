@@ -55,15 +55,15 @@ def _write_hits(origins, directions, r0, m, t, kind, u, v, inst_out, prim_out, i
 
 
 @nb.njit(**JIT)
-def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
-                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset,
-                      stack_size, width, band, tri_inst, tri_local, sph_inst, sph_prim,
-                      inst_shape, tri_off, tri_normals, inst_w2o, inst_sign, blas_sph_center,
+def closest_one_level(origins, directions, t_min, t_max, w2o, moved, tree, width, band, tri_inst, tri_local,
+                      sph_inst, sph_prim, inst_shape, tri_off, tri_normals, inst_w2o, inst_sign, blas_sph_center,
                       t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
-    """cast_rays through one tree (trace.closest_hit_bvh): a lone instance's own tree (its rays moved into
-    its object space when `moved`), or the world tree of several instances, whose triangle and sphere ids
-    tri_inst / tri_local / sph_inst / sph_prim map back to (instance, primitive); with none (empty maps) every
-    hit is instance 0's. Bands k0..k1 of `band` rays; first[k]: band k's problems (bands.load_band)."""
+    """cast_rays through one tree (trace.closest_hit_bvh; tree = its arguments, bounds .. stack size): a lone
+    instance's own tree (its rays moved into its object space when `moved`), or the world tree of several
+    instances, whose triangle and sphere ids tri_inst / tri_local / sph_inst / sph_prim map back to (instance,
+    primitive); with none (empty maps) every hit is instance 0's. Bands k0..k1 of `band` rays; first[k]: band k's
+    problems (bands.load_band). The query kernels take a tree as one tuple and pass it on spread (*tree): one
+    unboxing a band, and the traversal kernels keep their positional arrays."""
     mapped = tri_inst.shape[0] + sph_inst.shape[0] > 0
     o, d, lo, hi = band_scratch(band)
     t, kind, u, v = np.empty(band), np.empty(band, np.int8), np.empty(band), np.empty(band)
@@ -71,9 +71,8 @@ def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
         r0, m, clean = load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, hi, first)
         if not clean:
             continue
-        closest_hit_bvh(o[:m], d[:m], lo[:m], hi[:m], bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius,
-                        sph_w2o, pl_normal, pl_offset, stack_size, width, t[:m], kind[:m],
-                        prim_out[r0:r0 + m], u[:m], v[:m], 0, n_blocks_of(m))
+        closest_hit_bvh(o[:m], d[:m], lo[:m], hi[:m], *tree, width, t[:m], kind[:m], prim_out[r0:r0 + m], u[:m],
+                        v[:m], 0, n_blocks_of(m))
         for j in range(m):
             i = r0 + j
             p = prim_out[i]
@@ -89,65 +88,60 @@ def closest_one_level(origins, directions, t_min, t_max, w2o, moved,
                     inst_w2o, inst_sign, blas_sph_center, t_out, uv_out, normal_out)
 
 
+@nb.njit(**JIT, inline="always")
+def _world_band(origins, directions, t_min, t_max, tree, k, band, o, d, lo, hi, first):
+    """bands.load_band for the two-level kernels (tree = their tree arguments, top level first): world rays."""
+    inst_w2o = tree[4]
+    return load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
+
+
 @nb.njit(**JIT)
-def closest_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                      bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width, band,
-                      inst_shape, tri_off, tri_normals, inst_sign,
-                      t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
-    """cast_rays through the two-level tree (instance_packets.closest_hit_instances), when a shape is placed
-    twice; width as in closest_one_level."""
+def closest_two_level(origins, directions, t_min, t_max, tree, width, band, inst_shape, tri_off, tri_normals,
+                      inst_sign, t_out, inst_out, prim_out, uv_out, normal_out, first, k0, k1):
+    """cast_rays through the two-level tree (instance_packets.closest_hit_instances; tree = its arguments, top
+    level first, through the stack size), when a shape is placed twice; width as in closest_one_level."""
+    inst_w2o, sph_center = tree[4], tree[9]
     o, d, lo, hi = band_scratch(band)
     t, kind, u, v = np.empty(band), np.empty(band, np.int8), np.empty(band), np.empty(band)
     for k in range(k0, k1):
-        r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
+        r0, m, clean = _world_band(origins, directions, t_min, t_max, tree, k, band, o, d, lo, hi, first)
         if not clean:
             continue
-        closest_hit_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                              bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                              width, t[:m], inst_out[r0:r0 + m], kind[:m], prim_out[r0:r0 + m], u[:m], v[:m], 0,
-                              n_blocks_of(m))
+        closest_hit_instances(o[:m], d[:m], lo[:m], hi[:m], *tree, width, t[:m], inst_out[r0:r0 + m], kind[:m],
+                              prim_out[r0:r0 + m], u[:m], v[:m], 0, n_blocks_of(m))
         _write_hits(origins, directions, r0, m, t, kind, u, v, inst_out, prim_out, inst_shape, tri_off, tri_normals,
                     inst_w2o, inst_sign, sph_center, t_out, uv_out, normal_out)
 
 
 @nb.njit(**JIT)
-def occluded_one_level(origins, directions, t_min, t_max, w2o, moved,
-                       bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, pl_normal, pl_offset,
-                       stack_size, width, band, out, first, k0, k1):
+def occluded_one_level(origins, directions, t_min, t_max, w2o, moved, tree, width, band, out, first, k0, k1):
     """test_occlusions through one tree (trace.any_hit_bvh), as closest_one_level."""
     o, d, lo, hi = band_scratch(band)
     for k in range(k0, k1):
         r0, m, clean = load_band(origins, directions, t_min, t_max, w2o, moved, k, band, o, d, lo, hi, first)
         if clean:
-            any_hit_bvh(o[:m], d[:m], lo[:m], hi[:m], bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius,
-                        sph_w2o, pl_normal, pl_offset, stack_size, width, out[r0:r0 + m], 0, n_blocks_of(m))
+            any_hit_bvh(o[:m], d[:m], lo[:m], hi[:m], *tree, width, out[r0:r0 + m], 0, n_blocks_of(m))
 
 
 @nb.njit(**JIT)
-def occluded_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                       bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, width,
-                       band, out, first, k0, k1):
-    """test_occlusions through the two-level tree (instance_packets.any_hit_instances)."""
+def occluded_two_level(origins, directions, t_min, t_max, tree, width, band, out, first, k0, k1):
+    """test_occlusions through the two-level tree (instance_packets.any_hit_instances), as closest_two_level."""
     o, d, lo, hi = band_scratch(band)
     for k in range(k0, k1):
-        r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
+        r0, m, clean = _world_band(origins, directions, t_min, t_max, tree, k, band, o, d, lo, hi, first)
         if clean:
-            any_hit_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                              bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                              width, out[r0:r0 + m], 0, n_blocks_of(m))
+            any_hit_instances(o[:m], d[:m], lo[:m], hi[:m], *tree, width, out[r0:r0 + m], 0, n_blocks_of(m))
 
 
 @nb.njit(**JIT)
-def crossings_two_level(origins, directions, t_min, t_max, top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                        bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, band,
-                        offsets, out_t, out_inst, out_kind, out_prim, out_u, out_v, counts, first, k0, k1):
-    """count_intersections / list_intersections (instances.all_hits_instances): counts[i] of every ray, and with
-    outputs long enough its hits from offsets[i] on (offsets into the whole batch's outputs)."""
+def crossings_two_level(origins, directions, t_min, t_max, tree, band, offsets, out_t, out_inst, out_kind, out_prim,
+                        out_u, out_v, counts, first, k0, k1):
+    """count_intersections / list_intersections (instances.all_hits_instances; tree as in closest_two_level):
+    counts[i] of every ray, and with outputs long enough its hits from offsets[i] on (offsets into the whole
+    batch's outputs)."""
     o, d, lo, hi = band_scratch(band)
     for k in range(k0, k1):
-        r0, m, clean = load_band(origins, directions, t_min, t_max, inst_w2o[0], False, k, band, o, d, lo, hi, first)
+        r0, m, clean = _world_band(origins, directions, t_min, t_max, tree, k, band, o, d, lo, hi, first)
         if clean:
-            all_hits_instances(o[:m], d[:m], lo[:m], hi[:m], top_bounds, top_child, top_leaf, inst_root, inst_w2o,
-                               bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size,
-                               offsets[r0:r0 + m], out_t, out_inst, out_kind, out_prim, out_u, out_v,
-                               counts[r0:r0 + m], 0, n_blocks_of(m))
+            all_hits_instances(o[:m], d[:m], lo[:m], hi[:m], *tree, offsets[r0:r0 + m], out_t, out_inst, out_kind,
+                               out_prim, out_u, out_v, counts[r0:r0 + m], 0, n_blocks_of(m))

@@ -22,7 +22,7 @@ import math
 import numba as nb
 import numpy as np
 
-from ..common import PLANE, SPHERE, TRIANGLE
+from ..common import MISS, PLANE, SPHERE, TRIANGLE
 from ..intersect import intersect_plane, intersect_triangle, sphere_hit_in_object_space
 
 # The walk stops when the best hit lies this far (relative to the grid's size along the ray) before the end of
@@ -315,10 +315,7 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, sta
         d = directions[r]
         tlo = t_min[r]
         best = t_max[r]
-        bkind = 0
-        bprim = -1
-        bu = 0.0
-        bv = 0.0
+        bkind, bprim, bu, bv = MISS, -1, 0.0, 0.0
         tests = 0
         cells = 0
         # unbounded primitives beside the grid
@@ -358,7 +355,7 @@ def closest_hit_grid(origins, directions, t_min, t_max, lo, box, size, dims, sta
                     break
                 if not _walk_next(o, d, lo, size, dims, idx, step, tnext, a):
                     break
-        if bkind == 0:
+        if bkind == MISS:
             t_out[r] = np.inf
         else:
             t_out[r] = best

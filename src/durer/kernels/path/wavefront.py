@@ -33,10 +33,9 @@ PIECES = 32  # work items of a bounce: a few per thread, so a thread that was de
 
 
 def scratch(stack_size: int) -> tuple:
-    """Each piece's traversal stack (nodes, entry distances), lane distances and three rows for a textured slot's
-    resolved BSDF (kernels/path/textures.resolve_row): trace_bounce allocates nothing."""
-    return (np.empty((PIECES, stack_size), np.int32), np.empty((PIECES, stack_size)), np.empty((PIECES, 4)),
-            np.empty((3 * PIECES, COLUMNS)))
+    """Each piece's traversal stack (nodes, entry distances) and three rows for a textured slot's resolved BSDF
+    (kernels/path/textures.resolve_row): trace_bounce allocates nothing."""
+    return (np.empty((PIECES, stack_size), np.int32), np.empty((PIECES, stack_size)), np.empty((3 * PIECES, COLUMNS)))
 
 
 # _nrt=False: no reference counting in this kernel. With it, every array taken out of a tuple argument inside the
@@ -62,15 +61,15 @@ def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, 
     goes on. scratch = scratch()."""
     m = live.shape[0]
     for piece in range(p0, p1):
-        stack_node, stack_t, dist = scratch[0][piece], scratch[1][piece], scratch[2][piece]
+        stack_node, stack_t = scratch[0][piece], scratch[1][piece]
         for k in range(m * piece // PIECES, m * (piece + 1) // PIECES):
             _one_path(live[k], k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars,
-                      t_min, L, aux, first, alive, stack_node, stack_t, dist, (scratch[3], 3 * piece))
+                      t_min, L, aux, first, alive, stack_node, stack_t, (scratch[2], 3 * piece))
 
 
 @nb.njit(**JIT, inline="always")
 def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L, aux,
-              first, alive, stack_node, stack_t, dist, work):
+              first, alive, stack_node, stack_t, work):
     """trace_bounce's work on path i (live[k])."""
     sample, keys, pkeys = path
     bounds, child, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o, pl_n, pl_off, _ = accel
@@ -79,7 +78,7 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
     best, pprim = _planes(pl_n, pl_off, ox, oy, oz, dx, dy, dz, t_min, np.inf)
     t, kind, prim, _, _ = _closest(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
-                                   ox, oy, oz, dx, dy, dz, t_min, best, stack_node, stack_t, dist)
+                                   ox, oy, oz, dx, dy, dz, t_min, best, stack_node, stack_t)
     if kind == MISS and pprim >= 0:
         t, kind, prim = best, PLANE, pprim
     hit = kind != MISS
@@ -99,7 +98,7 @@ def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lig
     if ok:
         _, blocker = _planes(pl_n, pl_off, so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st)
         if blocker < 0 and not _any(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
-                                    so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st, stack_node, dist):
+                                    so[0], so[1], so[2], sd[0], sd[1], sd[2], 0.0, st, stack_node):
             L[i, 0] += sc[0]
             L[i, 1] += sc[1]
             L[i, 2] += sc[2]

@@ -283,7 +283,6 @@ def crossing_votes_instances(points, dirs, center, inst_root, inst_w2o, bounds, 
     run_blocks (no Numba parallel region: safe in forked processes)."""
     n = points.shape[0]
     stack = np.empty(max(stack_size, 1) * 4, np.int32)
-    dist = np.empty(WIDTH)
     e_t, e_u, e_v = np.empty(0), np.empty(0), np.empty(0)
     e_p, e_k = np.empty(0, np.int32), np.empty(0, np.int8)
     for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
@@ -305,6 +304,6 @@ def crossing_votes_instances(points, dirs, center, inst_root, inst_w2o, bounds, 
                 dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
                 dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
                 count = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                                 ox, oy, oz, dx, dy, dz, 0.0, np.inf, stack, dist, e_t, e_p, e_k, e_u, e_v, count)
+                                 ox, oy, oz, dx, dy, dz, 0.0, np.inf, stack, e_t, e_p, e_k, e_u, e_v, count)
             v += count & 1
         votes[i] = v
