@@ -172,7 +172,7 @@ def _meshes(obj) -> list:
 @example(faces=[(0, 1, 7)], nodes=[[]])                                                    # issue 25: PLY
 @example(faces=[(0, 1, 2)], nodes=[[0]])                                                   # issue 25: glTF cycle
 def test_ply_faces_and_gltf_node_graphs_load_or_say_why(tmp_path_factory, faces, nodes):
-    from test_bad_input import PLY_HEAD, _gltf
+    from test_project_bad_input import PLY_HEAD, _gltf
 
     folder = tmp_path_factory.mktemp("model")
     ply = folder / "mesh.ply"

@@ -46,6 +46,10 @@ from .query_args import (
 
 __all__ = ["INVALID_ID", "RaycastingScene", "flat_image_width"]
 
+# the pickled state's layout: 2 since the trees travel as named tuples (accel/bvh.TreeArrays, TopArrays) and meshes
+# carry their corner normals
+STATE_VERSION = 2
+
 
 class RaycastingScene:
     """Triangle meshes and spheres, each placed by a 4x4 transform, queried by batches of rays.
@@ -430,12 +434,13 @@ class RaycastingScene:
         a Dask worker) queries at once without rebuilding."""
         if self._instances:
             self._tree()
-        return {"version": 1, "shapes": self._shapes, "instances": self._instances, "bvh": self._bvh,
+        return {"version": STATE_VERSION, "shapes": self._shapes, "instances": self._instances, "bvh": self._bvh,
                 "distance": self._distance, "nthreads": self._nthreads, "corners": self._corners}
 
     def __setstate__(self, state: dict) -> None:
-        if state.get("version") != 1:
-            raise ValueError(f"cannot unpickle a RaycastingScene of state version {state.get('version')}")
+        if state.get("version") != STATE_VERSION:
+            raise ValueError(f"cannot unpickle a RaycastingScene of state version {state.get('version')}: this durer "
+                             f"reads version {STATE_VERSION}; build the scene again with this durer")
         self._shapes, self._instances, self._bvh = state["shapes"], state["instances"], state["bvh"]
         self._distance = state["distance"]
         self._nthreads = state.get("nthreads", 0)

@@ -264,7 +264,7 @@ def merge(parts) -> Accumulators:
 def _batch(integrator: Integrator, n_rays: int, halo: Tile) -> int:
     """Rays per integrator call: its batch, rounded to whole bands of 4 halo rows when the rays are the halo's
     pixels row by row (one sample each, every ray valid), so the BVH finds them an image and traces 4 x 4
-    packets (accel/bvh.flat_image_width)."""
+    packets (accel/widths.flat_image_width)."""
     band = TILE * halo.cols
     if n_rays != halo.pixels or halo.rows % TILE or halo.cols % TILE:
         return integrator.batch
