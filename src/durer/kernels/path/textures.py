@@ -208,7 +208,8 @@ def _unit(x, y, z):
 def shading_frame(P, s, TI, TD, n, g, surf):
     """The BSDF frame (normal, tangent s, tangent t, perturbed) at a hit with unit shading normal n and geometric
     normal g (both on the side the BSDF uses) and surf = (u, v, dp/du, dp/dv): the plain frame3(n), or the frame of
-    Mitsuba's normalmap (normal 2 rgb - 1 in the frame of dp/du and n; tangent dp/du made orthogonal to it) or
+    Mitsuba's normalmap (normal 2 rgb - 1 in the shading frame of dp/du and n; tangent that frame's s made orthogonal
+    to it, as Mitsuba 3.9 measured: not dp/du itself) or
     bumpmap (dp/du and dp/dv tilted along n by the height's gradient times the scale; normal their cross product,
     turned to g's side); anisotropic BSDFs without a map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
     nx, ny, nz = n
@@ -221,6 +222,7 @@ def shading_frame(P, s, TI, TD, n, g, surf):
             if not ok:
                 sx, sy, sz = frame3(nx, ny, nz)[0]
             tx, ty, tz = ny * sz - nz * sy, nz * sx - nx * sz, nx * sy - ny * sx
+            dux, duy, duz = sx, sy, sz  # the new tangent: sh_frame.s made orthogonal to the map's normal
             r, gg, b = tex_eval3(TI, TD, tn, u, v)
             lx, ly, lz = 2.0 * r - 1.0, 2.0 * gg - 1.0, 2.0 * b - 1.0
             mx, my, mz, ok = _unit(lx * sx + ly * tx + lz * nx, lx * sy + ly * ty + lz * ny,
