@@ -121,15 +121,17 @@ def _map_cases(d):
                      Bitmap(read_texture(normal, True)))),
         ({"type": "bumpmap", **plain, "t": bump, "bsdf": {"type": "diffuse", "reflectance": 0.6}},
          B.BumpMap(B.Diffuse(0.6), Bitmap(read_texture(height)), 1.0)),
+        ({"type": "bumpmap", **plain, "t": bump, "scale": 0.3, "bsdf": rough},  # the bumped frame's tangent too
+         B.BumpMap(B.RoughConductor(alpha_u=0.1, alpha_v=0.5, distribution="ggx"), Bitmap(read_texture(height)), 0.3)),
         ({"type": "bumpmap", **plain, "t": bump, "scale": 0.3, "bsdf": {"type": "diffuse", "reflectance": 0.6}},
          B.BumpMap(B.Diffuse(0.6), Bitmap(read_texture(height)), 0.3)),
     ]
 
 
-@pytest.mark.parametrize("case", range(4))
+@pytest.mark.parametrize("case", range(5))
 def test_normal_and_bump_maps_match_mitsuba(map_pngs, case):
-    """normalmap over diffuse and anisotropic roughconductor, bumpmap (scale 1 and 0.3) over diffuse: eval, pdf and
-    sample at many UVs of a surface with a tilted shading normal and skewed dp/du, dp/dv, against Mitsuba's own
+    """normalmap over diffuse and anisotropic roughconductor, bumpmap (scale 1 and 0.3) over diffuse and (0.3) over
+    anisotropic roughconductor: eval, pdf and sample at many UVs of a surface with a tilted shading normal and skewed dp/du, dp/dv, against Mitsuba's own
     SurfaceInteraction3f with the same p, n, sh_frame (initialize_sh_frame: dp/du made orthogonal to n), uv, dp/du,
     dp/dv and wi. Mitsuba 3.9's two later additions, on by default there, are switched off: flip_invalid_normals
     (a perturbed normal facing away from wi is flipped) and use_shadowing_function (Chiang et al. 2019's
