@@ -131,12 +131,13 @@ def _map_cases(d):
 @pytest.mark.parametrize("case", range(5))
 def test_normal_and_bump_maps_match_mitsuba(map_pngs, case):
     """normalmap over diffuse and anisotropic roughconductor, bumpmap (scale 1 and 0.3) over diffuse and (0.3) over
-    anisotropic roughconductor: eval, pdf and sample at many UVs of a surface with a tilted shading normal and skewed dp/du, dp/dv, against Mitsuba's own
-    SurfaceInteraction3f with the same p, n, sh_frame (initialize_sh_frame: dp/du made orthogonal to n), uv, dp/du,
-    dp/dv and wi. Mitsuba 3.9's two later additions, on by default there, are switched off: flip_invalid_normals
-    (a perturbed normal facing away from wi is flipped) and use_shadowing_function (Chiang et al. 2019's
-    bump-terminator factor); durer implements neither, so it matches Mitsuba's maps with both false. durer's side (shading_frame, then the BSDF in that frame, then bounce.py's test that wo stays on
-    the same side of both normals) is composed here as kernels/path/bounce.py composes it."""
+    anisotropic roughconductor: eval, pdf and sample at many UVs of a surface with a tilted shading normal and skewed
+    dp/du, dp/dv, against Mitsuba's own SurfaceInteraction3f with the same p, n, sh_frame (initialize_sh_frame: dp/du
+    made orthogonal to n), uv, dp/du, dp/dv and wi. Mitsuba 3.9's two later additions, on by default there, are
+    switched off: flip_invalid_normals (a perturbed normal facing away from wi is flipped) and use_shadowing_function
+    (Chiang et al. 2019's bump-terminator factor); durer implements neither, so it matches Mitsuba's maps with both
+    false. durer's side (shading_frame, then the BSDF in that frame, then bounce.py's test that wo stays on the same
+    side of both normals) is composed here as kernels/path/bounce.py composes it."""
     from durer.kernels.path.textures import shading_frame
 
     mi = _mitsuba()
