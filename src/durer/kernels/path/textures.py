@@ -208,33 +208,38 @@ def _unit(x, y, z):
 def shading_frame(P, s, TI, TD, n, g, surf):
     """The BSDF frame (normal, tangent s, tangent t, perturbed) at a hit with unit shading normal n and geometric
     normal g (both on the side the BSDF uses) and surf = (u, v, dp/du, dp/dv): the plain frame3(n), or the frame of
-    Mitsuba's normalmap (normal 2 rgb - 1 in the frame of dp/du and n; tangent dp/du made orthogonal to it) or
-    bumpmap (dp/du and dp/dv tilted along n by the height's gradient times the scale; normal their cross product,
-    turned to g's side); anisotropic BSDFs without a map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
+    Mitsuba's normalmap or bumpmap, whose formulas (Mitsuba 3.9, measured through its eval; see
+    tests/test_kernels_path_compose.py) start from the shading frame (s0, t0, n), s0 = dp/du made orthogonal to n.
+    normalmap: normal 2 rgb - 1 in that frame, tangent s0 made orthogonal to it. bumpmap: dp/du and dp/dv tilted
+    along n by the height's gradient times the scale, normal their cross product turned to g's side, tangent
+    Mitsuba's sh_frame.to_world(dp/du) (dp/du's world components read as local ones, as Mitsuba 3.9 does) made
+    orthogonal to it. Anisotropic BSDFs without a map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
     nx, ny, nz = n
     tn, tb = int(P[s, TEX_NORMAL]), int(P[s, TEX_BUMP])
     u, v, dux, duy, duz, dvx, dvy, dvz = surf
     if tn >= 0 or tb >= 0:
+        d = nx * dux + ny * duy + nz * duz
+        sx, sy, sz, ok = _unit(dux - d * nx, duy - d * ny, duz - d * nz)
+        if not ok:
+            sx, sy, sz = frame3(nx, ny, nz)[0]
+        tx, ty, tz = ny * sz - nz * sy, nz * sx - nx * sz, nx * sy - ny * sx
         if tn >= 0:
-            d = nx * dux + ny * duy + nz * duz
-            sx, sy, sz, ok = _unit(dux - d * nx, duy - d * ny, duz - d * nz)
-            if not ok:
-                sx, sy, sz = frame3(nx, ny, nz)[0]
-            tx, ty, tz = ny * sz - nz * sy, nz * sx - nx * sz, nx * sy - ny * sx
             r, gg, b = tex_eval3(TI, TD, tn, u, v)
             lx, ly, lz = 2.0 * r - 1.0, 2.0 * gg - 1.0, 2.0 * b - 1.0
             mx, my, mz, ok = _unit(lx * sx + ly * tx + lz * nx, lx * sy + ly * ty + lz * ny,
                                    lx * sz + ly * tz + lz * nz)
+            dux, duy, duz = sx, sy, sz  # the tangent to make orthogonal to the new normal
         else:
             gu, gv = tex_grad1(TI, TD, tb, u, v)
             gu, gv = gu * P[s, BUMP_SCALE], gv * P[s, BUMP_SCALE]
-            a = gu - (nx * dux + ny * duy + nz * duz)
-            b = gv - (nx * dvx + ny * dvy + nz * dvz)
-            dux, duy, duz = dux + a * nx, duy + a * ny, duz + a * nz
-            dvx, dvy, dvz = dvx + b * nx, dvy + b * ny, dvz + b * nz
-            mx, my, mz, ok = _unit(duy * dvz - duz * dvy, duz * dvx - dux * dvz, dux * dvy - duy * dvx)
+            a, b = gu - d, gv - (nx * dvx + ny * dvy + nz * dvz)
+            pux, puy, puz = dux + a * nx, duy + a * ny, duz + a * nz  # the tilted dp/du and dp/dv
+            pvx, pvy, pvz = dvx + b * nx, dvy + b * ny, dvz + b * nz
+            mx, my, mz, ok = _unit(puy * pvz - puz * pvy, puz * pvx - pux * pvz, pux * pvy - puy * pvx)
             if mx * g[0] + my * g[1] + mz * g[2] < 0:
                 mx, my, mz = -mx, -my, -mz
+            dux, duy, duz = (dux * sx + duy * tx + duz * nx, dux * sy + duy * ty + duz * ny,
+                             dux * sz + duy * tz + duz * nz)  # sh_frame.to_world(dp/du), as Mitsuba 3.9
         if ok:
             d = mx * dux + my * duy + mz * duz
             sx, sy, sz, ok = _unit(dux - d * mx, duy - d * my, duz - d * mz)
