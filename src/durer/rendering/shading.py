@@ -82,8 +82,9 @@ def phong(normals: np.ndarray, to_viewer: np.ndarray, to_light: np.ndarray, ligh
     n_dot_l = np.einsum("ij,ij->i", normals, to_light)
     lit = np.maximum(n_dot_l, 0.0)[:, None] * diffuse
     if np.any(specular):
-        h = to_light + to_viewer
-        h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+        h = to_light + to_viewer  # the half vector; none (no highlight) where light and viewer are opposite, whose
+        length = np.linalg.norm(h, axis=1, keepdims=True)  # sum's length underflows or is all rounding error
+        h = np.divide(h, length, out=np.zeros_like(h), where=length > 1e-12)
         n_dot_h = np.maximum(np.einsum("ij,ij->i", normals, h), 0.0)
         spec = np.where(n_dot_l > 0, n_dot_h ** exponent, 0.0)
         lit = lit + spec[:, None] * specular
