@@ -76,4 +76,6 @@ def preview_command(a: argparse.Namespace, render_options, scene_size) -> int:
 
         webbrowser.open(server.url)
     server.run()
-    return 0
+    # the server stops only on a signal (uvicorn takes SIGINT/SIGTERM and returns, re-raising the signal only when no
+    # asyncio runner's handler intercepts it first): stopping is an interruption, status 130 like any durer command
+    raise KeyboardInterrupt
