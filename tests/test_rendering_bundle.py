@@ -116,7 +116,8 @@ def test_the_bundle_holds_the_scene_wide_settings_and_tables():
     np.testing.assert_array_equal(b.emitters.environment, [0.1, 0.1, 0.1])
     assert len(b.bsdfs.kind) == len(scene.materials)
     mitsuba = compile_bundle(durer.load(EXAMPLES / "cornell_box.xml"), RenderOptions(integrator="path"))
-    assert mitsuba.physical and mitsuba.radiometric and mitsuba.lights is None
+    assert mitsuba.physical and mitsuba.radiometric and mitsuba.lights == ()  # its light is an area emitter
+    assert mitsuba.emitters.count == 1 and not mitsuba.emitters.has_environment
 
 
 def test_film_samples_follow_the_integrators_registration():
