@@ -186,8 +186,8 @@ def test_peak_allocation_is_flat_in_samples_and_within_the_check():
 
 
 def test_a_path_job_pickles_with_its_tables():
-    """prepare builds the path tracer's tables once (ctx.prepared); a pickled job carries them, and its units
-    give the local units' sums to the bit."""
+    """prepare gathers the path tracer's inputs once (ctx.prepared, from the bundle); a pickled job carries them,
+    and its units give the local units' sums to the bit."""
     job = _job("path", ("gaussian", 0.5))
     assert "path" in job.ctx.prepared
     remote = pickle.loads(pickle.dumps(job))

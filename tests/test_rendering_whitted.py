@@ -318,7 +318,7 @@ def trace_ray(ctx, o, d, t_min, bounces, weight):
     opts, table = ctx.options, ctx.materials
     hits = ctx.accel.closest_hit(o[None], d[None], t_min)
     if not hits.hit[0]:
-        return ctx.scene.background_color.copy()
+        return ctx.bundle.background.copy()
     p, n, m = surface(ctx, o[None], d[None], hits)
     back = float(d @ n[0]) > 0
     facing = -n if back else n

@@ -56,7 +56,7 @@ def explain_command(a: argparse.Namespace, render_options, scene_size) -> int:
     width, height = scene_size(a, scene)
     _check_pixel(x, y, width, height)
     try:
-        check_integrator(scene, opts)
+        check_integrator(scene.materials, opts)
     except ValueError as e:
         raise UsageError(str(e).replace("integrator='path'", "--integrator path")) from None
     tree = explain(scene, width, height, x, y, options=opts)

@@ -110,7 +110,7 @@ def _render(scene, width: int, height: int, options, a: argparse.Namespace, anim
         if a.camera_path:
             cameras = camera_path(a.camera_path, a.frames, getattr(scene.camera, "angle", None))
         else:
-            cameras = turntable(scene, a.frames, width, height)
+            cameras = turntable(scene, a.frames, width, height, bounds=job.ctx.bundle.given.bounds())
     if spec is None:
         from .rendering.frames import render_frames
 

@@ -144,7 +144,7 @@ def _denoised(job: Job, results: list[RenderResult], start: float) -> list[Rende
     """The results, denoised here when the options ask for it (as durer.render does after its units), timed."""
     for r in results:
         if job.options.denoise:
-            denoise_result(r, job.ctx.scene, job.options)
+            denoise_result(r, job.ctx.bundle.materials, job.options)
         r.seconds = time.perf_counter() - start
     return results
 

@@ -45,9 +45,9 @@ MAX_SAMPLES, MAX_BOUNCES = 64, 16  # the page's limits: a preview must stay inte
 def render_view(ctx: RenderContext, width: int, height: int) -> RenderResult:
     """render_in, path tracer included: the image `durer render` writes for ctx's scene, camera and options
     (denoised when they say so, as render() does)."""
-    check_integrator(ctx.scene, ctx.options)  # physically based materials need the path tracer: say so
+    check_integrator(ctx.bundle.materials, ctx.options)  # physically based materials need the path tracer: say so
     result = render_in(ctx, width, height)
-    return denoise_result(result, ctx.scene, ctx.options) if ctx.options.denoise else result
+    return denoise_result(result, ctx.bundle.materials, ctx.options) if ctx.options.denoise else result
 
 
 def denoise_unavailable(options: RenderOptions) -> str | None:
@@ -364,9 +364,9 @@ class PreviewSession:
             self.view = self.home
 
     def _context_for(self, options: RenderOptions) -> RenderContext:
-        scene = dataclasses.replace(self.scene, camera=self.view.camera)
+        # the same compiled bundle and accelerator through the view's camera; prepared afresh for these options
         ctx = self._context
-        return RenderContext(scene=scene, compiled=ctx.compiled, accel=ctx.accel, options=options)
+        return RenderContext(bundle=ctx.bundle, camera=self.view.camera, accel=ctx.accel, options=options)
 
     def _render_progressively(self) -> int:
         """Render the levels of the current generation; stop early when it changes. Returns the generation the

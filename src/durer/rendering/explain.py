@@ -20,6 +20,7 @@ equals the pixel of `render()` with the same options up to float rounding.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +33,7 @@ from ..scene.graph import Scene
 from ..scene.validate import PHYSICAL
 from . import film
 from .explain_path import explain_path_pixel
+from .integrators import PATH, integrator_for
 from .raycaster import RenderContext, raycast, surface
 from .renderer import choose_integrator, make_context, make_options
 from .shading import light_directions, phong
@@ -124,15 +126,15 @@ def local_terms(ctx: RenderContext, p: np.ndarray, n: np.ndarray, d: np.ndarray,
     n = -n if back else n
     table = ctx.materials
     ambient = np.zeros(3)
-    lights = [(np.zeros(3), np.zeros(3)) for _ in ctx.scene.lights]
+    lights = [(np.zeros(3), np.zeros(3)) for _ in ctx.bundle.lights]
     leaves = []
-    dirs = [light_directions(light, p) for light in ctx.scene.lights]
+    dirs = [light_directions(light, p) for light in ctx.bundle.lights]
     zero = np.zeros((1, 3))
-    for leaf, weight in leaf_weights(ctx.scene.materials, m, p):
+    for leaf, weight in leaf_weights(ctx.bundle.materials, m, p):
         kd, ks, e = table.diffuse[leaf], table.specular[leaf], table.exponent[leaf]
         w = float(weight[0])
         leaves.append((int(leaf[0]), w))
-        ambient += w * (ctx.scene.ambient_light * kd)[0]
+        ambient += w * (ctx.bundle.ambient * kd)[0]
         for i, (to_light, color, _) in enumerate(dirs):
             lights[i][0][:] += w * phong(n, -d, to_light, color, kd, zero, e)[0]
             lights[i][1][:] += w * phong(n, -d, to_light, color, zero, ks, e)[0]
@@ -158,7 +160,8 @@ class _Tracer:
         if not hits.hit[0]:
             return None, (points, normals, mat)
         k = int(mat[0])
-        material = self.ctx.scene.materials[k] if 0 <= k < len(self.ctx.scene.materials) else None
+        materials = self.ctx.bundle.materials
+        material = materials[k] if 0 <= k < len(materials) else None
         record = {"point": _vec(points[0]), "normal": _vec(normals[0]), "material": k,
                   "material_type": type(material).__name__, "object": OBJECT_KINDS[int(hits.kind[0])],
                   "primitive": int(hits.prim[0])}
@@ -176,11 +179,11 @@ class _Tracer:
                 "hit": hit, "weight": float(weight), "throughput": _vec(throughput), "contribution": [0.0] * 3,
                 "children": []}
         if hit is None:
-            node["contribution"] = _vec(fw * throughput * ctx.scene.background_color)
+            node["contribution"] = _vec(fw * throughput * ctx.bundle.background)
             node["end"] = _vec(o[0] + self.far * d[0])
             return node
         node["end"] = hit["point"]
-        if ctx.scene.lights is None:  # assignment 1: the flat colour, straight from the ray caster
+        if ctx.bundle.lights is None:  # assignment 1: the flat colour, straight from the ray caster
             flat = raycast(ctx, o, d, t_min).color[0]
             hit["shading"] = {"flat": _vec(flat)}
             node["contribution"] = _vec(fw * throughput * flat)
@@ -194,7 +197,7 @@ class _Tracer:
         visible = shadow_visibility(ctx, p, facing) if shadows else None
         own = ambient.copy()
         terms = []
-        for i, (light, (diffuse, specular)) in enumerate(zip(ctx.scene.lights, lights, strict=True)):
+        for i, (light, (diffuse, specular)) in enumerate(zip(ctx.bundle.lights, lights, strict=True)):
             term = {"light": i, "type": type(light).__name__, "diffuse": _vec(diffuse), "specular": _vec(specular),
                     "shadowed": None}
             if shadows:
@@ -217,7 +220,7 @@ class _Tracer:
     def shadow(self, p, facing, i: int, term: np.ndarray, throughput, fw: float) -> dict | None:
         """The shadow ray from hit point p to light i (None where the surface faces away: none is cast), with
         the closest object between (the blocker) if any."""
-        light = self.ctx.scene.lights[i]
+        light = self.ctx.bundle.lights[i]
         to_light, _, dist = light_directions(light, p)
         if not np.einsum("ij,ij->i", facing, to_light)[0] > 0:
             return None
@@ -272,24 +275,24 @@ def explain(scene: Scene, width: int, height: int, x: int, y: int, *, options: R
     options = make_options(options, **kwargs)
     if options.visualize_grid:
         raise ValueError("explain shows the rays of a render, not the grid's cells: drop visualize_grid")
-    check_integrator(scene, options)
+    check_integrator(scene.materials, options)
     return explain_in(make_context(scene, options), width, height, x, y)
 
 
-def check_integrator(scene: Scene, options: RenderOptions) -> None:
+def check_integrator(materials: Sequence, options: RenderOptions) -> None:
     """ValueError, as render() gives, when the options ask for the course's integrators on physically based
-    materials (which only the path tracer renders)."""
-    if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in scene.materials):
+    materials (which only the path tracer renders). `materials`: a scene's, or a compiled bundle's."""
+    if options.integrator != "path" and any(isinstance(m, PHYSICAL) for m in materials):
         raise ValueError("the scene has physically based materials (a Mitsuba scene): render it with "
                          "integrator='path'")
 
 
 def explain_in(ctx: RenderContext, width: int, height: int, x: int, y: int) -> PixelTree:
     """explain() with a prepared context (the preview server keeps one per scene and options)."""
-    if ctx.options.integrator == "path":  # each sample's path, replayed by the path tracer (explain_path.py)
+    if integrator_for(ctx.options) is PATH:  # each sample's path, replayed by the path tracer (explain_path.py)
         rays = explain_path_pixel(ctx, width, height, x, y)
         return PixelTree(pixel=(x, y), size=(width, height), rays=rays, options=ctx.options)
-    camera = image_camera(ctx.scene.camera, width, height)  # the camera render() traces this image through
+    camera = image_camera(ctx.camera, width, height)  # the camera render() traces this image through
     tracer = _Tracer(ctx, choose_integrator(ctx.options))
     points, owners, weights = pixel_samples(width, height, x, y, ctx.options)
     origins, directions, valid = camera.generate_rays(points, width, height)

@@ -107,7 +107,7 @@ class _Recorder:
         hit = None
         if b["kind"][i] != MISS:
             slot = int(b["slot"][i])
-            materials = self.tracer.ctx.scene.materials
+            materials = self.tracer.ctx.bundle.materials
             material = materials[slot] if 0 <= slot < len(materials) else None
             hit = {"point": _vec(b["point"][i]), "normal": _vec(b["normal"][i]), "material": slot,
                    "material_type": _bsdf_name(material), "object": OBJECT_KINDS[int(b["kind"][i])],
@@ -185,7 +185,7 @@ def explain_path_pixel(ctx: RenderContext, width: int, height: int, x: int, y: i
     """One chain of nodes per sample weighing on pixel (x, y) of the path-traced image (module docstring)."""
     options = ctx.options
     tracer = PathTracer(ctx)
-    camera = image_camera(ctx.scene.camera, width, height)
+    camera = image_camera(ctx.camera, width, height)
     pts, pix, sidx, weights = path_samples(width, height, x, y, options)
     origins, directions, valid = film.camera_rays(camera, pts, width, height, options, pix, sidx)
     lo, hi = ctx.compiled.bounds()
@@ -199,7 +199,7 @@ def explain_path_pixel(ctx: RenderContext, width: int, height: int, x: int, y: i
         if k in row:
             node = recorder.path(row[k], fw, int(sidx[k]), int(pix[k]))
         else:  # outside a fisheye's image circle: no ray; the film shows the background there, as render does
-            background = fw * np.asarray(ctx.scene.background_color, dtype=np.float64)
+            background = fw * np.asarray(ctx.bundle.background, dtype=np.float64)
             node = {"kind": "camera", "origin": _vec(origins[k]), "direction": _vec(directions[k]), "t": None,
                     "hit": None, "weight": 1.0, "throughput": [1.0] * 3, "contribution": _vec(background),
                     "children": [], "end": _vec(origins[k]), "no_ray": True}

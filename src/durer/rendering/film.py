@@ -40,6 +40,7 @@ import numba as nb
 import numpy as np
 
 from ..options import RenderOptions
+from .integrators import integrator_for
 from .sampling import PIXEL_KEY, key, sobol_pair
 
 LENS_KEY = PIXEL_KEY - 1  # the sample index of a pixel's aperture stream (lens_samples), never a real one
@@ -111,8 +112,9 @@ def _draws(options: RenderOptions, width: int, height: int, rows: range, cols: r
 
 def uses_sobol(options: RenderOptions) -> bool:
     """The path tracer places film samples with its Owen-scrambled Sobol pairs (sampling.py), whatever the
-    sampler: they are stratified for every sample count and keyed by (pixel, sample), like its other dimensions."""
-    return options.integrator == "path"
+    sampler: they are stratified for every sample count and keyed by (pixel, sample), like its other dimensions.
+    A trait of the integrator's registration (integrators.Integrator.sobol)."""
+    return integrator_for(options).sobol
 
 
 def tile_offsets(options: RenderOptions, width: int, height: int, rows: range, cols: range,

@@ -56,11 +56,11 @@ def write_samples_image(path: str, scene, width: int, height: int, options: Rend
     ctx = make_context(scene, options)
     integrate = choose_integrator(options)
     points, _ = sample_points(width, height, options)
-    origins, directions, valid = scene.camera.generate_rays(points, width, height)
+    origins, directions, valid = ctx.camera.generate_rays(points, width, height)
     colors = np.zeros((len(points), 3))
     idx = np.flatnonzero(valid)
     if len(idx):
-        colors[idx] = integrate(ctx, origins[idx], directions[idx], scene.camera.t_min).color
+        colors[idx] = integrate(ctx, origins[idx], directions[idx], ctx.camera.t_min).color
     save_image(path, samples_image(points, colors, width, height, zoom), course=True)
 
 

@@ -41,9 +41,10 @@ def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
 
 
-def look_at_point(scene: Scene, camera) -> np.ndarray:
-    """The point a non-framed camera orbits: on its viewing axis, as far as the scene's bounding-box centre."""
-    lo, hi = compile_scene(scene).bounds()
+def look_at_point(scene: Scene, camera, bounds: tuple | None = None) -> np.ndarray:
+    """The point a non-framed camera orbits: on its viewing axis, as far as the scene's bounding-box centre.
+    `bounds`: the compiled scene's (lo, hi) when a render has compiled it (SceneBundle.given), else compiled here."""
+    lo, hi = bounds if bounds is not None else compile_scene(scene).bounds()
     centre = (np.asarray(lo) + np.asarray(hi)) / 2.0
     if not np.all(np.isfinite(centre)):
         centre = np.zeros(3)  # only unbounded primitives (planes): orbit at the distance of the origin
@@ -60,9 +61,9 @@ def world_up(up) -> np.ndarray:
     return axis
 
 
-def turntable(scene: Scene, frames: int, width: int, height: int) -> list:
+def turntable(scene: Scene, frames: int, width: int, height: int, bounds: tuple | None = None) -> list:
     """`frames` cameras orbiting the look-at point of the scene's camera about its vertical (module docstring),
-    one full turn; frame 0 is the scene's own camera for this image size."""
+    one full turn; frame 0 is the scene's own camera for this image size. `bounds`: as look_at_point's."""
     if int(frames) != frames or frames < 1:
         raise ValueError(f"frames must be a positive integer, got {frames}")
     camera = image_camera(scene.camera, width, height)
@@ -71,7 +72,7 @@ def turntable(scene: Scene, frames: int, width: int, height: int) -> list:
             raise ValueError(f"a turntable needs a camera with a center, direction and up; got "
                              f"{type(camera).__name__}")
     frame = getattr(scene.camera, "frame", None)
-    pivot, axis = (np.asarray(frame[0]), np.asarray(frame[2])) if frame else (look_at_point(scene, camera),
+    pivot, axis = (np.asarray(frame[0]), np.asarray(frame[2])) if frame else (look_at_point(scene, camera, bounds),
                                                                                world_up(camera.up))
     cameras = [camera]
     for k in range(1, int(frames)):

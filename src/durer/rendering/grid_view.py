@@ -33,11 +33,11 @@ def visualize_grid(ctx, origins: np.ndarray, directions: np.ndarray, t_min: floa
     grid = ctx.accel
     if not isinstance(grid, GridAccelerator):
         raise ValueError("-visualize_grid needs the grid accelerator (-grid NX NY NZ)")
-    scene = ctx.scene
+    b = ctx.bundle
     n = len(origins)
     t, axis, count = grid.first_occupied(origins, directions, t_min)
     hit = np.isfinite(t)
-    color = np.broadcast_to(scene.background_color, (n, 3)).copy()
+    color = np.broadcast_to(b.background, (n, 3)).copy()
     normals = np.zeros((n, 3))
     d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
     rows = np.flatnonzero(hit & (axis >= 0))
@@ -46,13 +46,13 @@ def visualize_grid(ctx, origins: np.ndarray, directions: np.ndarray, t_min: floa
     normals[inside] = -d[inside]
     if hit.any():
         kd = COUNT_COLORS[np.minimum(count[hit], len(COUNT_COLORS)) - 1]
-        if scene.lights is None:
+        if b.lights is None:
             color[hit] = kd
         else:
             points = origins[hit] + t[hit, None] * directions[hit]
-            shaded = scene.ambient_light * kd
+            shaded = b.ambient * kd
             zero = np.zeros_like(kd)
-            for light in scene.lights:
+            for light in b.lights:
                 to_light, light_color, _ = light_directions(light, points)
                 shaded = shaded + phong(normals[hit], -d[hit], to_light, light_color, kd, zero,
                                         np.ones(len(kd)))

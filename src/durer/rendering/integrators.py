@@ -24,16 +24,18 @@ PATH_BATCH = 1 << 16  # paths per wavefront: 2^14 -> 2^16 measured 1.5x faster (
 class Integrator:
     """An integrator and how to drive it: `batch` rays per call (its working memory grows with it), `workers`
     units traced at once by the local driver (each with its share of the threads), `bytes_per_ray` of working
-    memory per ray of a batch (the memory check, measured), and `prepare(ctx)`, run once per render by
-    units.prepare, for the tables it builds from the compiled scene (none for the Phong integrators, whose
-    MaterialTable the context holds)."""
+    memory per ray of a batch (the memory check, measured), `prepare(ctx)`, run once per render by
+    units.prepare, for what it gathers from the compiled bundle and the accelerator (none for the Phong
+    integrators, which read the bundle's tables as they are), and `sobol`: its film samples are placed by its own
+    Owen-scrambled Sobol pairs, keyed like its other random numbers, whatever the sampler (film.uses_sobol)."""
 
     name: str
     trace: Callable
     batch: int = CHUNK
     workers: int = 1
     bytes_per_ray: int = 1200
-    prepare: Callable | None = None  # builds what it reads besides the context, once per render (into ctx.prepared)
+    prepare: Callable | None = None  # gathers what it reads besides the context, once per render (ctx.prepared)
+    sobol: bool = False  # film samples from the integrator's Sobol stream (sampling.py), not options.sampler
 
 
 RAYCAST = Integrator("raycast", raycast, bytes_per_ray=600)
@@ -41,7 +43,8 @@ WHITTED = Integrator("whitted", whitted, bytes_per_ray=2000)
 GRID = Integrator("grid", visualize_grid, bytes_per_ray=600)
 # two wavefronts at once (the kernels free the GIL), each bounce's kernels on the threads left to it: two on two
 # cores each splitting its bounces over both threads took 1.35x the wall time (caustic scene, 32 spp)
-PATH = Integrator("path", path_trace, batch=PATH_BATCH, workers=2, bytes_per_ray=1200, prepare=prepare_path)
+PATH = Integrator("path", path_trace, batch=PATH_BATCH, workers=2, bytes_per_ray=1200, prepare=prepare_path,
+                  sobol=True)
 
 
 def integrator_for(options: RenderOptions) -> Integrator:

@@ -24,9 +24,7 @@ from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
-from .bsdfs import BSDFTable
 from .context import RenderContext, SampleResult
-from .emitters import Emitters
 from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, uniform
 from .texturing import leaf_weights
 
@@ -35,17 +33,17 @@ MAX_BOUNCES = 1024     # a hard stop for unbounded paths whose throughput never 
 
 
 class PathTracer:
-    """Everything a path needs from the scene, built once per render: BSDF table and emitters."""
+    """Everything a path needs, gathered once per render from the compiled scene bundle (its BSDF table and
+    emitters, built by compile: bundle.py) and the accelerator (the tree the fused bounce walks)."""
 
     def __init__(self, ctx: RenderContext):
         self.ctx = ctx
-        scene = ctx.scene
-        self.table = BSDFTable.from_materials(scene.materials)
-        self.emitters = Emitters.build(scene, ctx.compiled, self.table)
+        b = ctx.bundle
+        self.table, self.emitters = b.bsdfs, b.emitters
         o = ctx.options
         self.max_depth, self.rr_depth, self.hide = o.max_depth, o.rr_depth, o.hide_emitters
         # course scenes show the background colour to camera rays that escape (the environment only lights)
-        self.background = None if scene.radiometric_lights else scene.background_color
+        self.background = None if b.radiometric else b.background
         flat = ctx.compiled.flat  # instances flattened: hit_surfaces reads every triangle from one array
         self._surfaces = tuple(np.ascontiguousarray(a) for a in (
             flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
@@ -257,14 +255,14 @@ class PathTracer:
         chosen = slot[t].copy()
         acc = np.zeros(len(t))
         done = np.zeros(len(t), bool)
-        for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t], p[t]):
+        for leaf, weight in leaf_weights(self.ctx.bundle.materials, slot[t], p[t]):
             acc += weight
             take = ~done & (u[t] < acc) & (weight > 0)
             chosen[take] = leaf[take]
             done |= take
         last = ~done  # rounding: the weights sum to 1 up to float error
         if last.any():
-            for leaf, weight in leaf_weights(self.ctx.scene.materials, slot[t][last], p[t][last]):
+            for leaf, weight in leaf_weights(self.ctx.bundle.materials, slot[t][last], p[t][last]):
                 chosen[np.flatnonzero(last)[weight > 0]] = leaf[weight > 0]
         out = slot.copy()
         out[t] = chosen
@@ -272,7 +270,8 @@ class PathTracer:
 
 
 def prepare_path(ctx: RenderContext) -> None:
-    """Build the path tracer's tables (BSDFs, emitters, surfaces, the tree to walk) once for a render."""
+    """Gather the path tracer's inputs (the bundle's BSDFs and emitters, the surfaces' arrays, the tree to walk)
+    once for a render."""
     ctx.prepared.setdefault("path", PathTracer(ctx))
 def _unit_corners(normals: np.ndarray) -> np.ndarray:
     """(F, 3, 3) corner normals scaled to unit length (zero rows stay zero: flat triangles)."""

@@ -13,8 +13,8 @@ import numpy as np
 from ..accel.compile import TRIANGLE, CompiledScene
 from ..accel.hits import Hits, geometric_normals, hit_materials
 from .context import RenderContext, SampleResult
-from .shading import MaterialTable, light_directions, phong
-from .texturing import diffuse_colors, emission, leaf_weights
+from .shading import light_directions, phong
+from .texturing import diffuse_colors, leaf_weights
 
 __all__ = ["RenderContext", "SampleResult", "raycast", "shade_local", "surface"]  # the first two: context.py
 
@@ -76,20 +76,19 @@ def raycast(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
             pixel: np.ndarray | None = None, sample: np.ndarray | None = None) -> SampleResult:
     """Eye rays only: background on a miss; flat colour or ambient + diffuse + specular on a hit (no random
     numbers: pixel and sample, the integrators' common signature, are not needed)."""
-    scene = ctx.scene
+    b = ctx.bundle
     hits = ctx.accel.closest_hit(origins, directions, t_min=t_min)
     n = len(origins)
-    color = np.broadcast_to(scene.background_color, (n, 3)).copy()
+    color = np.broadcast_to(b.background, (n, 3)).copy()
     points, normals, mat = surface(ctx, origins, directions, hits)
     m = hits.hit
     uv, tint = hit_uv(ctx, hits, points), hit_tint(ctx, hits, points)
     uv, tint = (None if a is None else a[m] for a in (uv, tint))
     albedo = np.zeros((n, 3)) if ctx.options.aovs or ctx.options.denoise else None
-    if scene.lights is None:  # assignment 1: the object's own colour (blended through any solid textures)
-        table = MaterialTable.from_materials(scene.materials)
+    if b.lights is None:  # assignment 1: the object's own colour (blended through any solid textures)
         flat = np.zeros((int(m.sum()), 3))
-        for leaf, weight in leaf_weights(scene.materials, mat[m], points[m]):
-            flat += weight[:, None] * diffuse_colors(scene.materials, table.diffuse, leaf, uv, tint)
+        for leaf, weight in leaf_weights(b.materials, mat[m], points[m]):
+            flat += weight[:, None] * diffuse_colors(b.materials, b.phong.diffuse, leaf, uv, tint)
         color[m] = flat
         if albedo is not None:
             albedo[m] = np.clip(flat, 0.0, 1.0)
@@ -111,11 +110,11 @@ def hit_reflectance(ctx: RenderContext, mat: np.ndarray, points: np.ndarray, uv:
     surface has a lobe that is not a perfect mirror or refraction (kd or ks), where the integrators stop following
     mirror and refraction rays for it. The path tracer's PHONG albedo (kernels/path/bsdf.bsdf_albedo) is the same
     sum."""
-    table = ctx.materials if ctx.materials is not None else MaterialTable.from_materials(ctx.scene.materials)
+    table, materials = ctx.bundle.phong, ctx.bundle.materials
     reflectance = np.zeros((len(mat), 3))
     smooth = np.zeros(len(mat), bool)
-    for leaf, weight in leaf_weights(ctx.scene.materials, mat, points):
-        kd = diffuse_colors(ctx.scene.materials, table.diffuse, leaf, uv, tint)
+    for leaf, weight in leaf_weights(materials, mat, points):
+        kd = diffuse_colors(materials, table.diffuse, leaf, uv, tint)
         ks = table.specular[leaf]
         reflectance += weight[:, None] * (kd + ks + table.reflective[leaf] + table.transparent[leaf])
         smooth |= (weight > 0) & ((kd.max(axis=1) > 0) | (ks.max(axis=1) > 0))
@@ -134,19 +133,19 @@ def shade_local(ctx: RenderContext, points, normals, directions, mat, light_visi
     `uv` (N,2), if given, looks up image textures and `tint` (N,3), if given, multiplies the diffuse colour
     (vertex colours; texturing.diffuse_colors); PBR materials add their emission.
     """
-    table = ctx.materials
+    b = ctx.bundle
+    table = b.phong
     d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
     back = np.einsum("ij,ij->i", d, normals) > 0
     normals = np.where(back[:, None], -normals, normals)
-    lights = [light_directions(light, points) for light in ctx.scene.lights]
+    lights = [light_directions(light, points) for light in b.lights]
     color = np.zeros((len(points), 3))
-    for leaf, weight in leaf_weights(ctx.scene.materials, mat, points):
-        kd = diffuse_colors(ctx.scene.materials, table.diffuse, leaf, uv, tint)
+    for leaf, weight in leaf_weights(b.materials, mat, points):
+        kd = diffuse_colors(b.materials, table.diffuse, leaf, uv, tint)
         ks, e = table.specular[leaf], table.exponent[leaf]
-        shaded = ctx.scene.ambient_light * kd
-        glow = emission(ctx.scene.materials, leaf)
-        if glow is not None:
-            shaded = shaded + glow
+        shaded = b.ambient * kd
+        if table.emission is not None:
+            shaded = shaded + table.emission[leaf]
         for i, (to_light, light_color, _) in enumerate(lights):
             contribution = phong(normals, -d, to_light, light_color, kd, ks, e)
             if light_visible is not None:

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 
 from ..options import RenderOptions
@@ -39,9 +40,10 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
     start = time.perf_counter()
     if not quiet:  # one line saying what compiles and for how long, when Numba's cache lacks it (kernel_cache.py)
         compile_notice(options, scene)
-    result = render_in(make_context(scene, options), width, height, quiet=quiet, start=start)
+    ctx = make_context(scene, options)
+    result = render_in(ctx, width, height, quiet=quiet, start=start)
     if options.denoise:
-        denoise_result(result, scene, options)
+        denoise_result(result, ctx.bundle.materials, options)
         result.seconds = time.perf_counter() - start
     return result
 
@@ -62,20 +64,21 @@ def resolve(scene: Scene, width: int | None = None, height: int | None = None, o
     return width, height, options
 
 
-def denoise_result(result: RenderResult, scene: Scene, options: RenderOptions) -> RenderResult:
-    """Replace result.color by OIDN's denoised colour (with the albedo and normal features); in place."""
+def denoise_result(result: RenderResult, materials: Sequence, options: RenderOptions) -> RenderResult:
+    """Replace result.color by OIDN's denoised colour (with the albedo and normal features); in place.
+    `materials`: the scene's (a compiled bundle's), which say whether the features are clean."""
     from .denoise import clean_features, denoise
 
     done = denoise(result.color, result.albedo, result.shading_normals,
-                   clean=clean_features(scene.materials, options.integrator == "path"), quality=options.denoise_quality)
+                   clean=clean_features(materials, options.integrator == "path"), quality=options.denoise_quality)
     result.color, result.denoise_seconds = done.color, done.seconds
     return result
 
 
 def render_in(ctx: RenderContext, width: int, height: int, *, quiet: bool = True,
               start: float | None = None) -> RenderResult:
-    """render() with a prepared context: the preview renders many views of one compiled scene (ctx.scene's camera
-    is the one used, so a view is RenderContext(scene with another camera, the same compiled scene and accel)).
+    """render() with a prepared context: the preview renders many views of one compiled scene (ctx.camera is the
+    one used, so a view is RenderContext(the same bundle and accel, another camera)).
     It is the units of work of units.py run here: prepare, every unit, finish."""
     start = time.perf_counter() if start is None else start
     job = job_for(ctx, width, height)

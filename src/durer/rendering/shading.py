@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
-from ..scene.materials import PhongMaterial
+from ..scene.materials import PBRMaterial, PhongMaterial
 from .textures import TextureTable
 
 
@@ -27,6 +27,7 @@ class MaterialTable:
     reflective: np.ndarray   # (M,3)
     transparent: np.ndarray  # (M,3)
     ior: np.ndarray          # (M,)
+    emission: np.ndarray | None = None  # (M,3) PBR materials' emitted colour; None when nothing glows
 
     @classmethod
     def from_materials(cls, materials: list) -> MaterialTable:
@@ -40,10 +41,17 @@ class MaterialTable:
             reflective=np.array([m.reflective_color for m in phong]).reshape(-1, 3),
             transparent=np.array([m.transparent_color for m in phong]).reshape(-1, 3),
             ior=np.array([m.index_of_refraction for m in phong], dtype=np.float64),
+            emission=_glow(materials),
         )
 
 
 _NO_MATERIAL = PhongMaterial(diffuse_color=(0.0, 0.0, 0.0))
+
+
+def _glow(materials: list) -> np.ndarray | None:
+    """Emitted colour (M,3) by material id (PBR materials' emissive, zero elsewhere), or None if nothing glows."""
+    glow = np.array([m.emission if isinstance(m, PBRMaterial) else np.zeros(3) for m in materials]).reshape(-1, 3)
+    return glow if glow.any() else None
 
 
 def light_directions(light, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -142,9 +142,3 @@ def diffuse_colors(materials: list, diffuse: np.ndarray, leaf: np.ndarray, uv: n
             sel = leaf == i
             kd[sel] = kd[sel] * image_lookup(mat.texture, uv[sel])
     return kd
-
-
-def emission(materials: list, leaf: np.ndarray) -> np.ndarray | None:
-    """Emitted colour (N,3) of Phong material ids `leaf` (PBR materials' emissive), or None if nothing glows."""
-    glow = np.array([m.emission if isinstance(m, PBRMaterial) else np.zeros(3) for m in materials]).reshape(-1, 3)
-    return glow[leaf] if glow.any() else None

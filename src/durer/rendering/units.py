@@ -157,15 +157,15 @@ class Job:
 
 
 def job_for(ctx: RenderContext, width: int, height: int) -> Job:
-    """The Job of a context (the preview renders many views of one compiled scene: ctx.scene's camera is the one
-    used): plan the units, frame the camera, choose the integrator and build its tables."""
+    """The Job of a context (the preview renders many views of one compiled scene: ctx.camera is the one used):
+    plan the units, frame the camera, choose the integrator and gather its inputs (Integrator.prepare)."""
     options = ctx.options
     side, per_pass = plan(options.samples, film.support_radius(options))
     if options.stats and film.support_radius(options):
         # -stats counts the rays cast: halo samples traced again by a neighbouring tile would count twice, so a
         # counted render with a wide filter is one tile (the course's images are small)
         side = max(width, height)
-    camera = image_camera(ctx.scene.camera, width, height)  # a model's framed camera fits this image's shape
+    camera = image_camera(ctx.camera, width, height)  # a model's framed camera fits this image's shape
     integrator = integrator_for(options)
     if integrator.prepare is not None:
         integrator.prepare(ctx)
@@ -287,7 +287,7 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     origins, directions, valid = film.camera_rays(job.camera, points, width, height, options, pixel, sample)
     n = len(points)
     color = np.empty((n, 3))
-    color[:] = job.ctx.scene.background_color  # film points without a ray (outside a fisheye's circle)
+    color[:] = job.ctx.bundle.background  # film points without a ray (outside a fisheye's circle)
     t, normal = np.full(n, np.inf), np.zeros((n, 3))
     aovs: dict[str, np.ndarray] = {}
     if options.alpha:  # coverage: 1 where the camera ray hit something, filtered like the colour

@@ -65,7 +65,7 @@ def shadow_visibility(ctx: RenderContext, points: np.ndarray, normals: np.ndarra
     light's segment ends at the light). Every object casts an opaque shadow, transparent ones included, as in
     the course. Points facing away from a light get no shadow ray: that light adds nothing there anyway."""
     visible = []
-    for light in ctx.scene.lights:
+    for light in ctx.bundle.lights:
         to_light, _, dist = light_directions(light, points)
         mask = _dot(normals, to_light) > 0
         seen = np.zeros(len(points), dtype=bool)
@@ -87,7 +87,7 @@ def secondary_coefficients(ctx: RenderContext, mat: np.ndarray,
     reflective = np.zeros((len(mat), 3))
     transparent = np.zeros((len(mat), 3))
     ior = np.zeros(len(mat))
-    for leaf, weight in leaf_weights(ctx.scene.materials, mat, points):
+    for leaf, weight in leaf_weights(ctx.bundle.materials, mat, points):
         reflective += weight[:, None] * table.reflective[leaf]
         transparent += weight[:, None] * table.transparent[leaf]
         ior += weight * table.ior[leaf]
@@ -102,12 +102,12 @@ def whitted(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, t_m
 
     A scene without a Lights block is drawn in flat colour (assignment 1): with no lights there is nothing to cast
     shadow rays to and no shading to reflect, so it is the ray caster's image."""
-    if ctx.scene.lights is None:
+    if ctx.bundle.lights is None:
         return raycast(ctx, origins, directions, t_min)
     opts = ctx.options
     n = len(origins)
     color = np.zeros((n, 3))
-    background = ctx.scene.background_color
+    background = ctx.bundle.background
     first_t = np.full(n, np.inf)
     first_normal = np.zeros((n, 3))
 
