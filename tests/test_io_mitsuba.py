@@ -124,7 +124,9 @@ def test_every_error_is_one_line_with_file_and_line(tmp_path, body, line, messag
 SENSOR_ERRORS = [
     ("<sensor type=\"thinlens\"/>", 2, "thinlens needs an aperture_radius"),
     ("<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<rfilter type=\"mitchell\"><float name=\"B\" "
-     "value=\"0.5\"/></rfilter></film></sensor>", 3, "mitchell filter has Mitsuba's default B = C = 1/3 only"),
+     "value=\"nan\"/></rfilter></film></sensor>", 3, "B: not a finite number: 'nan'"),
+    ("<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<rfilter type=\"catmullrom\"><float name=\"B\" "
+     "value=\"0.5\"/></rfilter></film></sensor>", 3, "B"),
     ("<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><integer name=\"crop_width\" value=\"900\"/></film>"
      "</sensor>", 3, "crop window 900 x 576 at (0, 0) must lie inside the 768 x 576 film"),
     ("<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"xyz\"/>"

@@ -167,9 +167,9 @@ def add_render_flags(p: argparse.ArgumentParser, size_default: tuple[int, int] |
     p.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="sample pattern when --samples > 1 (default: jittered)")
     p.add_argument("--filter", default=None, metavar="NAME[:WIDTH]",
-                   help="reconstruction filter: box, tent or gaussian (the course's), or mitchell, lanczos or "
-                        "mitsuba_gaussian (Mitsuba 3's), with an optional radius, lobes or sigma in pixels, e.g. "
-                        "gaussian:0.4 (default: the scene's, else box:0.5)")
+                   help="reconstruction filter: box, tent or gaussian (the course's), or mitchell, catmullrom, "
+                        "lanczos or mitsuba_gaussian (Mitsuba 3's), with an optional radius, lobes or sigma in pixels, "
+                        "e.g. gaussian:0.4 (default: the scene's, else box:0.5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samplers (default: 0)")
     p.add_argument("--accel", choices=ACCELERATORS, default="bvh",
                    help="how rays find their closest hit: bvh, the bounding volume hierarchy (default), or brute, "
@@ -195,6 +195,7 @@ def render_options(a: argparse.Namespace, scene_defaults: dict | None = None) ->
         if radius is not None and not radius > 0:
             raise UsageError("--filter: the width must be positive")
         opts["filter"], opts["filter_radius"] = name, radius if radius is not None else 0.5
+        opts.pop("filter_b", None), opts.pop("filter_c", None)  # a scene's mitchell B and C go with its filter
     if a.max_depth is not None and a.max_depth < -1:
         raise UsageError("--max-depth: must be -1 (unbounded) or a non-negative integer")
     opts.update(shade_back=a.shade_back, shadows=a.shadows, bounces=a.bounces, weight=a.weight, seed=a.seed,

@@ -8,7 +8,8 @@ from dataclasses import dataclass
 
 SAMPLERS = ("uniform", "random", "jittered")
 COURSE_FILTERS = ("box", "tent", "gaussian")  # the course's (radial tent, gaussian cut at 2 sigma): -box_filter ...
-FILTERS = COURSE_FILTERS + ("mitchell", "lanczos", "mitsuba_gaussian")  # Mitsuba 3's, separable (rendering/film.py)
+# Mitsuba 3's, separable (rendering/film.py)
+FILTERS = COURSE_FILTERS + ("mitchell", "catmullrom", "lanczos", "mitsuba_gaussian")
 # how far each filter reaches, in multiples of filter_radius
 _REACH = {"gaussian": 2.0, "mitsuba_gaussian": 4.0}
 ACCELERATORS = ("bvh", "brute")
@@ -31,8 +32,10 @@ class RenderOptions:
     weight: float = 0.01          # stop rays whose contribution falls below this (-weight)
     samples: int = 1              # samples per pixel
     sampler: str = "uniform"      # uniform | random | jittered (one centred sample when samples == 1 and uniform)
-    filter: str = "box"           # box | tent | gaussian | mitchell | lanczos | mitsuba_gaussian (rendering/film.py)
-    filter_radius: float = 0.5    # box/tent/mitchell radius, lanczos lobes, or gaussian sigma, in pixels
+    filter: str = "box"           # box | tent | gaussian | mitchell | catmullrom | lanczos | mitsuba_gaussian (film.py)
+    filter_radius: float = 0.5    # box/tent/mitchell/catmullrom radius, lanczos lobes, or gaussian sigma, in pixels
+    filter_b: float = 1.0 / 3.0   # mitchell: Mitsuba's B and C of the Mitchell-Netravali cubic (defaults 1/3 each)
+    filter_c: float = 1.0 / 3.0
     seed: int = 0                 # seed of the random and jittered samplers: same seed, same image
     course_random: bool = False   # random/jittered offsets from the course's drand48 stream instead (film.py)
     course_edges: bool = False    # triangles accept points just outside their edges, as the course's do (compile.py)
@@ -57,8 +60,8 @@ class RenderOptions:
     alpha: bool = False
 
     def filter_reach(self) -> float:
-        """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent, mitchell, lanczos), 2 sigma
-        (the course's gaussian) or 4 sigma (Mitsuba's)."""
+        """How far from a pixel centre the filter weighs samples, in pixels: r (box, tent, mitchell, catmullrom,
+        lanczos), 2 sigma (the course's gaussian) or 4 sigma (Mitsuba's)."""
         return self.filter_radius * _REACH.get(self.filter, 1.0)
 
     def validate(self) -> None:
@@ -75,6 +78,8 @@ class RenderOptions:
             raise ValueError(f"unknown filter {self.filter!r} (use one of {', '.join(FILTERS)})")
         if not self.filter_radius > 0:
             raise ValueError(f"filter radius must be positive, got {self.filter_radius}")
+        if not (abs(self.filter_b) < float("inf") and abs(self.filter_c) < float("inf")):
+            raise ValueError(f"mitchell's B and C must be finite numbers, got {self.filter_b}, {self.filter_c}")
         if not self.filter_reach() <= MAX_FILTER_REACH:
             what = "sigma" if "gaussian" in self.filter else "radius"
             most = MAX_FILTER_REACH / _REACH.get(self.filter, 1.0)

@@ -271,19 +271,21 @@ class Builder:
             child = self.resolve(child)
             if child.tag != "rfilter":
                 raise child.error(f"<{child.tag}> cannot appear in a film")
-            self.defaults["filter"], self.defaults["filter_radius"] = self._rfilter(child)
+            self.defaults.update(self._rfilter(child))
         return width, height
 
-    def _rfilter(self, node) -> tuple[str, float]:
-        """A Mitsuba rfilter as durer's filter name and radius (rendering/film.py)."""
+    def _rfilter(self, node) -> dict:
+        """A Mitsuba rfilter as durer's render defaults: filter name and radius, and mitchell's B and C
+        (rendering/film.py)."""
         f = Props(node)
         t = node.type
-        if t not in ("box", "tent", "gaussian", "mitchell", "lanczos"):
-            raise node.error(f"unsupported rfilter '{t}' (use box, tent, gaussian, mitchell or lanczos)")
+        out = {}
+        if t not in ("box", "tent", "gaussian", "mitchell", "catmullrom", "lanczos"):
+            raise node.error(f"unsupported rfilter '{t}' (use box, tent, gaussian, mitchell, catmullrom or lanczos)")
         if t == "mitchell":
-            b, c = f.get("B", 1.0 / 3.0, float), f.get("C", 1.0 / 3.0, float)
-            if abs(b - 1.0 / 3.0) > 1e-6 or abs(c - 1.0 / 3.0) > 1e-6:
-                raise node.error("durer's mitchell filter has Mitsuba's default B = C = 1/3 only")
+            out = {"filter_b": f.get("B", 1.0 / 3.0, float), "filter_c": f.get("C", 1.0 / 3.0, float)}
+            radius = 2.0
+        elif t == "catmullrom":
             radius = 2.0
         elif t == "lanczos":
             radius = float(f.get("lobes", 3, int))
@@ -294,7 +296,7 @@ class Builder:
         f.done()
         if not radius > 0:
             raise node.error("filter radius must be positive")
-        return {"gaussian": "mitsuba_gaussian"}.get(t, t), radius
+        return {"filter": {"gaussian": "mitsuba_gaussian"}.get(t, t), "filter_radius": radius, **out}
 
 
     def sampler(self, node) -> None:

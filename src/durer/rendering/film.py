@@ -24,10 +24,12 @@ Assignment 7 of the course, for any sample count n:
   pixels within the filter's integer support radius (cropped at the image border), ceil(extent - 1/2) with extent
   r for box and tent and 2 sigma for the gaussian. The gaussian is not clamped to zero beyond 2 sigma inside that
   support: the reference filter7_*.png images show exp(-2) = 0.135 at the corners of the support.
-  Mitsuba 3's filters are separable, w(dx) w(dy), as its film weighs samples: `mitchell` (Mitchell-Netravali,
-  B = C = 1/3, over radius r: Mitsuba's has r = 2), `lanczos` (sinc(x) sinc(x / r), r lobes: Mitsuba's 3) and
-  `mitsuba_gaussian` (exp(-x^2 / 2 sigma^2) less its value at 4 sigma, zero beyond: Mitsuba's gaussian). Their
-  negative lobes (mitchell, lanczos) are kept, as Mitsuba keeps them.
+  Mitsuba 3's filters are separable, w(dx) w(dy), as its film weighs samples: `mitchell` (Mitchell-Netravali with
+  options.filter_b and filter_c, Mitsuba's B and C, default 1/3 each, over radius r: Mitsuba's has r = 2),
+  `catmullrom` (Mitsuba's: the same cubic with B = 0, C = 1/2, whatever filter_b and filter_c), `lanczos`
+  (sinc(x) sinc(x / r), r lobes: Mitsuba's 3) and `mitsuba_gaussian` (exp(-x^2 / 2 sigma^2) less its value at
+  4 sigma, zero beyond: Mitsuba's gaussian). Their negative lobes (mitchell, catmullrom, lanczos) are kept, as
+  Mitsuba keeps them.
   `reconstruct` filters every sample of an image at once; `gather` does the same for one tile from the samples of
   the tile and its halo (the render's units, units.py), in the same order, so both give the same bits.
 """
@@ -46,9 +48,9 @@ from .sampling import PIXEL_KEY, key, sobol_pair
 LENS_KEY = PIXEL_KEY - 1  # the sample index of a pixel's aperture stream (lens_samples), never a real one
 
 BOX, TENT, GAUSSIAN, MITCHELL, LANCZOS, MITSUBA_GAUSSIAN = range(6)
-_FILTER_CODES = {"box": BOX, "tent": TENT, "gaussian": GAUSSIAN, "mitchell": MITCHELL, "lanczos": LANCZOS,
-                 "mitsuba_gaussian": MITSUBA_GAUSSIAN}
-_B = _C = 1.0 / 3.0  # Mitchell and Netravali's recommended pair, Mitsuba's defaults
+_FILTER_CODES = {"box": BOX, "tent": TENT, "gaussian": GAUSSIAN, "mitchell": MITCHELL, "catmullrom": MITCHELL,
+                 "lanczos": LANCZOS, "mitsuba_gaussian": MITSUBA_GAUSSIAN}
+CATMULL_ROM = (0.0, 0.5)  # Mitsuba's catmullrom: the cubic's (B, C)
 
 
 # --- sampling ----------------------------------------------------------------------------------------------------
@@ -184,17 +186,18 @@ def sample_points(width: int, height: int, options: RenderOptions) -> tuple[np.n
 
 # --- filtering ---------------------------------------------------------------------------------------------------
 @nb.njit(cache=True, inline="always")
-def _weight1(kind: int, r: float, x: float) -> float:
-    """One axis of Mitsuba's separable filters (module docstring)."""
+def _weight1(kind: int, r: float, bc: tuple[float, float], x: float) -> float:
+    """One axis of Mitsuba's separable filters (module docstring); bc the cubic's (B, C)."""
     x = abs(x)
     if kind == MITCHELL:
+        b, c = bc
         x = 2.0 * x / r
         if x >= 2.0:
             return 0.0
         x2 = x * x
         if x < 1.0:
-            return ((12 - 9 * _B - 6 * _C) * x2 * x + (-18 + 12 * _B + 6 * _C) * x2 + (6 - 2 * _B)) / 6.0
-        return ((-_B - 6 * _C) * x2 * x + (6 * _B + 30 * _C) * x2 + (-12 * _B - 48 * _C) * x + (8 * _B + 24 * _C)) / 6.0
+            return ((12 - 9 * b - 6 * c) * x2 * x + (-18 + 12 * b + 6 * c) * x2 + (6 - 2 * b)) / 6.0
+        return ((-b - 6 * c) * x2 * x + (6 * b + 30 * c) * x2 + (-12 * b - 48 * c) * x + (8 * b + 24 * c)) / 6.0
     if kind == LANCZOS:
         if x >= r:
             return 0.0
@@ -207,9 +210,9 @@ def _weight1(kind: int, r: float, x: float) -> float:
 
 
 @nb.njit(cache=True, inline="always")
-def _weight(kind: int, r: float, dx: float, dy: float) -> float:
+def _weight(kind: int, r: float, bc: tuple[float, float], dx: float, dy: float) -> float:
     if kind >= MITCHELL:
-        return _weight1(kind, r, dx) * _weight1(kind, r, dy)
+        return _weight1(kind, r, bc, dx) * _weight1(kind, r, bc, dy)
     if kind == BOX:  # edges inclusive, up to float rounding (the course's k/zoom - 4.5 lands on r = 1.7 in float)
         edge = r * (1.0 + 1e-6)
         return 1.0 if abs(dx) <= edge and abs(dy) <= edge else 0.0
@@ -220,18 +223,26 @@ def _weight(kind: int, r: float, dx: float, dy: float) -> float:
 
 
 @nb.njit(cache=True)
-def _weights_at(kind: int, r: float, dx: np.ndarray, dy: np.ndarray, out: np.ndarray) -> None:
+def _weights_at(kind: int, r: float, bc: tuple[float, float], dx: np.ndarray, dy: np.ndarray,
+                out: np.ndarray) -> None:
     # serial: a few ns a sample, and called while the path tracer's wavefronts run on the other threads, where a
     # parallel region's OpenMP threads went on spinning after it and took 20% of the cores from the wavefronts
     for i in range(dx.shape[0]):
-        out[i] = _weight(kind, r, dx[i], dy[i])
+        out[i] = _weight(kind, r, bc, dx[i], dy[i])
+
+
+def cubic(options: RenderOptions) -> tuple[float, float]:
+    """(B, C) of the Mitchell-Netravali cubic the filter uses (catmullrom's own pair; unused by other filters)."""
+    if options.filter == "catmullrom":
+        return CATMULL_ROM
+    return float(options.filter_b), float(options.filter_c)
 
 
 def filter_weight(options: RenderOptions, dx, dy) -> np.ndarray:
     """The filter's weight at offsets (dx, dy) in pixels from a pixel centre (arrays broadcast together)."""
     dx, dy = np.broadcast_arrays(np.asarray(dx, dtype=np.float64), np.asarray(dy, dtype=np.float64))
     out = np.empty(dx.size)
-    _weights_at(_FILTER_CODES[options.filter], float(options.filter_radius),
+    _weights_at(_FILTER_CODES[options.filter], float(options.filter_radius), cubic(options),
                 np.ascontiguousarray(dx).ravel(), np.ascontiguousarray(dy).ravel(), out)
     return out.reshape(dx.shape)
 
@@ -244,7 +255,7 @@ def support_radius(options: RenderOptions) -> int:
 
 
 @nb.njit(cache=True, parallel=True)
-def _reconstruct(points, start, order, values, width, height, kind, r, radius, out):
+def _reconstruct(points, start, order, values, width, height, kind, r, bc, radius, out):
     """out[p] = sum w(s - centre(p)) * value(s) / sum w over samples s of the pixels within `radius` of p."""
     channels = values.shape[1]
     for p in nb.prange(width * height):
@@ -259,7 +270,7 @@ def _reconstruct(points, start, order, values, width, height, kind, r, radius, o
                 q = rr * width + cc
                 for k in range(start[q], start[q + 1]):
                     s = order[k]
-                    w = _weight(kind, r, points[s, 0] - cx, points[s, 1] - cy)
+                    w = _weight(kind, r, bc, points[s, 0] - cx, points[s, 1] - cy)
                     if w != 0.0:
                         total += w
                         for c in range(channels):
@@ -288,12 +299,13 @@ def reconstruct(points: np.ndarray, pixel: np.ndarray, values: np.ndarray, width
     np.cumsum(np.bincount(pixel, minlength=count), out=start[1:])
     out = np.empty((count, vals.shape[1]))
     _reconstruct(np.ascontiguousarray(points, dtype=np.float64), start, order.astype(np.int64), vals, width, height,
-                 _FILTER_CODES[options.filter], float(options.filter_radius), support_radius(options), out)
+                 _FILTER_CODES[options.filter], float(options.filter_radius), cubic(options), support_radius(options),
+                 out)
     return out.reshape((count,) + np.shape(values)[1:])
 
 
 @nb.njit(cache=True)
-def _gather(points, values, per_pixel, halo, tile, width, height, kind, r, radius, acc, wsum):
+def _gather(points, values, per_pixel, halo, tile, width, height, kind, r, bc, radius, acc, wsum):
     """acc[p] += w * value and wsum[p] += w over the samples of the pixels within `radius` of each tile pixel p, in
     _reconstruct's order (neighbour pixels row-major, then their samples in order). The samples are those of the
     halo rectangle (row, col, rows, cols), per_pixel to a pixel, row-major; the tile lies inside it."""
@@ -312,7 +324,7 @@ def _gather(points, values, per_pixel, halo, tile, width, height, kind, r, radiu
                 for cc in range(max(0, col - radius), min(width, col + radius + 1)):
                     q = (rr - hr) * hw + (cc - hc)
                     for s in range(q * per_pixel, (q + 1) * per_pixel):
-                        w = _weight(kind, r, points[s, 0] - cx, points[s, 1] - cy)
+                        w = _weight(kind, r, bc, points[s, 0] - cx, points[s, 1] - cy)
                         if w != 0.0:
                             total += w
                             for c in range(channels):
@@ -328,4 +340,4 @@ def gather(points: np.ndarray, values: np.ndarray, per_pixel: int, halo: tuple[i
     every sample of the image at hand this is reconstruct's numerator and denominator to the bit."""
     _gather(np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(values, dtype=np.float64),
             int(per_pixel), halo, tile, int(width), int(height), _FILTER_CODES[options.filter],
-            float(options.filter_radius), support_radius(options), acc, wsum)
+            float(options.filter_radius), cubic(options), support_radius(options), acc, wsum)

@@ -58,7 +58,7 @@ class Scene:
     # colours are radiometric (Mitsuba: point intensity W/sr, directional irradiance) rather than the course's
     # (scaled by pi so a diffuse surface looks as in the ray caster, rendering/emitters.py), and the render's
     # defaults the scene carries (integrator, max_depth, rr_depth, hide_emitters, samples, filter, filter_radius,
-    # width, height), which explicit render options override.
+    # filter_b, filter_c, width, height), which explicit render options override.
     environment: object | None = None
     radiometric_lights: bool = False
     render_defaults: dict = field(default_factory=dict)

@@ -6,8 +6,10 @@ every bitmap's texels in one float32 array (row-major (H, W, C) from OFFSET, C =
 follows Mitsuba 3's `bitmap` (measured against mi.load_dict(...).eval in scalar_rgb): (u, v) = to_uv @ (u, v, 1), pixel
 coordinates x = u W, y = v H with row 0 the file's first (top) row and texel centres at half-integers; bilinear
 mixes the four texels around (x - 1/2, y - 1/2), nearest takes floor(x), floor(y); each index is wrapped by repeat,
-mirror or clamp. A number read from a colour texture is its luminance (Mitsuba's eval_1). A checkerboard is color0
-where frac(u) > 1/2 and frac(v) > 1/2 agree, color1 where they differ.
+mirror or clamp. A number read from a colour texture is its luminance (Mitsuba's eval_1). A checkerboard's colour is
+color0 where frac(u) > 1/2 and frac(v) > 1/2 agree, color1 where they differ; a number read from it (a roughness,
+weight or opacity) is the *other* colour's channel mean, as Mitsuba 3.9's checkerboard eval_1 swaps the two and an
+rgb constant's eval_1 is its mean (measured: color0 0, color1 0.4 gives eval 0 and eval_1 0.4 at uv (0.25, 0.25)).
 """
 
 from __future__ import annotations
@@ -108,19 +110,32 @@ def _bitmap(TI, TD, t, u, v):
     return out0, out1, out2
 
 
+@nb.njit(**JIT, inline="always")
+def _checker_colour(u, v, number):
+    """Column of the checkerboard colour at transformed (u, v): color0 where the halves agree (eval), or for a
+    number (eval_1) the other one, as Mitsuba 3.9 does."""
+    agree = (u - math.floor(u) > 0.5) == (v - math.floor(v) > 0.5)
+    return COLOR0 if agree != number else COLOR1
+
+
 @nb.njit(**JIT)
 def tex_eval3(TI, TD, t, u, v):
     """Colour (r, g, b) of texture t at the hit's texture coordinates (u, v)."""
     u, v = _uv(TI, t, u, v)
     if TI[t, TKIND] == CHECKER:
-        col = COLOR0 if (u - math.floor(u) > 0.5) == (v - math.floor(v) > 0.5) else COLOR1
+        col = _checker_colour(u, v, False)
         return TI[t, col], TI[t, col + 1], TI[t, col + 2]
     return _bitmap(TI, TD, t, u, v)
 
 
 @nb.njit(**JIT)
 def tex_eval1(TI, TD, t, u, v):
-    """A number from texture t at (u, v): a one-channel texture's value, a colour texture's luminance."""
+    """A number from texture t at (u, v): a one-channel texture's value, a colour bitmap's luminance, a
+    checkerboard's channel mean of the colour Mitsuba's eval_1 picks (the other one than tex_eval3's)."""
+    if TI[t, TKIND] == CHECKER:
+        uu, vv = _uv(TI, t, u, v)
+        col = _checker_colour(uu, vv, True)
+        return (TI[t, col] + TI[t, col + 1] + TI[t, col + 2]) / 3.0  # an rgb constant's eval_1: its mean
     r, g, b = tex_eval3(TI, TD, t, u, v)
     if TI[t, TKIND] == BITMAP and TI[t, CHANNELS] == 1:
         return r
