@@ -76,8 +76,8 @@ ERRORS = [
     ("<emitter type=\"photon\"/>", 3, "unsupported emitter 'photon'"),
     ("<emitter type=\"spot\">\n<texture type=\"bitmap\" name=\"texture\"/></emitter>", 4,
      "bitmap needs a filename"),
-    ("<shape type=\"sphere\"><emitter type=\"area\">\n<texture type=\"checkerboard\" name=\"radiance\"/></emitter>"
-     "</shape>", 4, "area: a textured radiance is not read yet"),
+    ("<shape type=\"sphere\"><emitter type=\"area\">\n<texture type=\"checkerboard\" name=\"irradiance\"/>"
+     "</emitter></shape>", 4, "<texture> cannot appear in emitter 'area'"),
     ("<shape type=\"sdfgrid\"/>", 3, "sdfgrid needs a filename or a grid"),
     ("<integrator type=\"volpath\"/>", 3, "unsupported integrator 'volpath'"),
     ("<texture type=\"voronoi\"/>", 3, "unsupported texture 'voronoi'"),

@@ -187,6 +187,26 @@ def test_checkerboard_on_a_bsdf_parameter(tmp_path):
                                                                            'value="flat.obj"/>'))))
 
 
+def test_area_emitter_radiance_may_be_a_texture(tmp_path):
+    """<texture name="radiance"> in an area emitter (nested or by reference) is the Surface's radiance; a mesh file
+    without texture coordinates cannot carry it (one FILE:LINE error, as for a BSDF's texture)."""
+    body = ('<texture type="checkerboard" id="c"><rgb name="color0" value="0.9"/><rgb name="color1" value="0.1"/>'
+            '</texture><shape type="rectangle"><emitter type="area"><ref name="radiance" id="c"/></emitter></shape>'
+            '<shape type="sphere"><emitter type="area"><texture type="checkerboard" name="radiance">'
+            '<rgb name="color0" value="0.5, 0.25, 0"/></texture></emitter></shape>')
+    s = load_mitsuba(str(scene(tmp_path, body)))
+    rect, ball = (s.materials[o.object.material].radiance for o in s.group.objects)
+    assert isinstance(rect, Checker) and np.allclose(rect.color0, 0.9) and np.allclose(rect.color1, 0.1)
+    assert isinstance(ball, Checker) and np.allclose(ball.color0, [0.5, 0.25, 0]) and np.allclose(ball.color1, 0.2)
+    (tmp_path / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    p = scene(tmp_path, '<shape type="obj">\n<string name="filename" value="flat.obj"/><emitter type="area">'
+                        '<texture type="checkerboard" name="radiance"/></emitter></shape>')
+    with pytest.raises(SceneError) as e:
+        load_mitsuba(str(p))
+    assert str(e.value) == (f"{p}:1: shape 'obj' has no texture coordinates for its emitter's textured radiance "
+                            "(its mesh file has none)")
+
+
 def test_thindielectric_reads_its_parameters(tmp_path):
     """thindielectric: int_ior / ext_ior (numbers or Mitsuba's names) and both colours, Mitsuba's defaults."""
     from durer.scene.bsdfs import ThinDielectric

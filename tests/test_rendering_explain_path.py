@@ -134,3 +134,29 @@ def test_every_example_path_traced_adds_up(name, tmp_path, capsys):
         np.testing.assert_allclose(tree["color"], image[y, x], rtol=RTOL, atol=1e-9, err_msg=f"{name} {x} {y}")
         assert main(["explain", str(EXAMPLES / name), "--pixel", str(x), str(y), *flags]) == 0
         assert capsys.readouterr().out.startswith(f"pixel ({x}, {y}) of 12x10")
+
+
+def test_a_camera_ray_on_a_textured_light_sees_the_texture_at_its_uv():
+    """A checkerboard area light seen by camera rays: each ray's emission is one of the two colours (the texture
+    at the hit's UV, as the kernel looked it up, not the texture's mean), counted with MIS weight 1."""
+    from durer.io.mitsuba_values import look_at
+
+    look = look_at(np.array([0.0, 0, 0]), np.array([0.0, 0, 1]), np.array([0.0, 1, 0]))
+    light = look_at(np.array([0.3, 0, 0.7]), np.array([-1.0, 0, 0.7]), np.array([0.0, 1, 0]))
+    scene = durer.load_dict({
+        "type": "scene", "sensor": {"type": "perspective", "fov": 70, "to_world": look},
+        "light": {"type": "rectangle", "to_world": light @ np.diag([0.15, 0.15, 1, 1]),
+                  "emitter": {"type": "area", "radiance": {
+                      "type": "checkerboard", "color0": {"type": "rgb", "value": [1.0, 0.25, 0.1]},
+                      "color1": {"type": "rgb", "value": [0.05, 0.1, 0.8]}, "to_uv": np.diag([4.0, 3, 1, 1])}}}})
+    colours = set()
+    for x, y in [(4, 12), (5, 14), (6, 16), (4, 18), (5, 13), (6, 15), (4, 17), (5, 19)]:
+        tree = explain(scene, 32, 32, x, y, integrator="path", samples=2, filter="box", max_depth=2)
+        for root in tree.rays:
+            assert "emitter" in root["hit"]["material_type"] and root["emission"]["mis_weight"] == 1.0
+            radiance = root["emission"]["radiance"]
+            assert radiance in ([1.0, 0.25, 0.1], [0.05, 0.1, 0.8])
+            colours.add(tuple(radiance))
+            np.testing.assert_allclose(root["contribution"], np.multiply(radiance, root["sample"]["filter_weight"]),
+                                       rtol=1e-12)
+    assert len(colours) == 2

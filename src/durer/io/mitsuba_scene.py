@@ -320,11 +320,7 @@ class Builder:
             raise node.error("an area emitter belongs inside a shape (or is declared with an id and referenced "
                              "from one)" if t == "area" else f"emitter '{t}' cannot be attached to a shape")
         if t == "area":
-            out = colour(self, node, p, "radiance", 1.0)
-            if isinstance(out, (Bitmap, Checker)):  # light sampling would need the UV of each sampled point
-                where = next(c for c in node.children if c.name == "radiance")
-                raise where.error("area: a textured radiance is not read yet (durer's area emitters "
-                                             "emit one colour)")
+            out = colour(self, node, p, "radiance", 1.0)  # a colour or a texture (looked up at the UV)
         elif t == "point":
             m = p.get("to_world", None, "matrix")
             pos = p.get("position", None, "vec")
@@ -352,7 +348,8 @@ class Builder:
             raise node.error(f"unsupported emitter '{t}' (use area, point, spot, directional, constant or envmap)")
         p.done()
         for child in node.children:
-            if not (t == "spot" and child.name == "texture"):  # the spot's projected texture
+            # the spot's projected texture, an area light's textured radiance
+            if not (t == "spot" and child.name == "texture" or t == "area" and child.name == "radiance"):
                 raise child.error(f"<{child.tag}> cannot appear in emitter '{t}'")
         return out
 

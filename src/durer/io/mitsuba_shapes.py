@@ -69,8 +69,10 @@ def build_shape(builder, node, depth: int = 0, out: list | None = None) -> None:
             radiance = builder.emitter(child, shape=node)
         else:
             raise child.error(f"<{child.tag}> cannot appear in a shape")
-    if textured(bsdf) and not isinstance(geometry, ANALYTIC) and getattr(geometry, "uvs", None) is None:
-        raise node.error(f"shape '{t}' has no texture coordinates for its bsdf's textures (its mesh file has none)")
+    if (textured(bsdf) or textured(radiance)) and not isinstance(geometry, ANALYTIC) and \
+            getattr(geometry, "uvs", None) is None:
+        what = "bsdf's textures" if textured(bsdf) else "emitter's textured radiance"
+        raise node.error(f"shape '{t}' has no texture coordinates for its {what} (its mesh file has none)")
     builder.materials.append(call(node, B.Surface, bsdf if bsdf is not None else B.Diffuse(), radiance, flip))
     geometry.material = len(builder.materials) - 1
     out.append(Transform(m, geometry))

@@ -7,6 +7,12 @@ emissive material slot) by area, a sphere by the solid angle of the cone it subt
 or cylinder by area through its parametrisation, the environment uniformly over the sphere of directions. Area lights
 emit from the front side of their (possibly flipped) normals only.
 
+An area light's radiance may be a Mitsuba texture (bitmap or checkerboard): it is looked up at the UV of the point a
+path hits (the BSDF row's textured emission, kernels/path/textures.resolve_row) and at the UV of the point light
+sampling chose (kernels/path/emitters.py). The emitter is still picked uniformly and its point sampled by area (a
+sphere's by solid angle), not by the texture's brightness as Mitsuba 3 samples a spatially varying radiance, so both
+strategies' pdfs stay the texture-free ones (the same estimate, with more noise where the texture is very uneven).
+
 Course scenes: a course light's colour is scaled by pi (point lights keep their a + b d + c d^2 attenuation), so
 that a diffuse surface of colour kd lit by it looks as in the ray caster (kd * colour * cos); the ambient light
 becomes a constant environment (a white diffuse surface open to the sky reflects the ambient colour), and camera
@@ -25,6 +31,7 @@ from ..kernels.path.emitters import (
     AREA_MESH,
     AREA_SHAPE,
     AREA_SPHERE,
+    AREA_TEX,
     ATTENUATION,
     AXIS,
     CENTER,
@@ -39,6 +46,7 @@ from ..kernels.path.emitters import (
     FIRST_TRI,
     INNER,
     O2W,
+    OBJECT_CENTER,
     OUTER,
     PARAMS,
     POINT,
@@ -59,7 +67,7 @@ from ..kernels.path.emitters import (
 )
 from ..scene.graph import Scene
 from ..scene.lights import ConstantEnvironment, DirectionalLight, EnvironmentMap, PointLight, SpotLight
-from .bsdfs import BSDFTable
+from .bsdfs import TEXTURED_PARAMS, BSDFTable
 from .envmap import EnvMapLight, no_envmap
 from .textures import TextureTable
 
@@ -76,7 +84,8 @@ class Emitters:
     environment: np.ndarray | None = None                   # constant radiance of escaping rays (lighting)
     envmap: EnvMapLight | None = None                       # or an environment map
     environment_id: int = -1
-    textures: TextureTable = field(default_factory=TextureTable)  # the BSDFs' table, with spots' textures
+    textures: TextureTable = field(default_factory=TextureTable)  # the BSDFs' table (area lights' textured
+    # radiance among them), with spots' textures
     _packed: tuple | None = None
     _env: tuple | None = None
 
@@ -96,6 +105,8 @@ class Emitters:
         tri_slot = flat.triangle_material if n_tri else np.zeros(0, np.int32)
         e.triangle_emitter = np.full(n_tri, -1, np.int64)
         emits = table.emission.max(axis=1) > 0 if len(table.emission) else np.zeros(0, bool)
+        tex = table.tex[:, TEXTURED_PARAMS.index("emission")] if len(table.tex) else np.zeros(0, np.int64)
+        uvs = np.asarray(flat.triangle_uv, dtype=np.float64).reshape(-1, 6)
         for slot in np.flatnonzero(emits):
             ids = np.flatnonzero(tri_slot == slot)
             if not len(ids):
@@ -106,9 +117,11 @@ class Emitters:
             normal = cross / np.maximum(2.0 * area, 1e-300)[:, None]
             if table.flip[slot]:
                 normal = -normal
+            uv = uvs[ids] if len(uvs) else np.zeros((len(ids), 6))  # zeros without UVs, as the hit's uv_at
             e.triangle_emitter[ids] = e.count
             cdf = np.concatenate([[0.0], np.cumsum(area)])
-            e._add(AREA_MESH, table.emission[slot], dict(v=v, normal=normal, cdf=cdf / cdf[-1], area=cdf[-1]))
+            e._add(AREA_MESH, table.emission[slot], dict(v=v, normal=normal, uv=uv, cdf=cdf / cdf[-1], area=cdf[-1],
+                                                         texture=tex[slot]))
         e.sphere_emitter = np.full(len(cs.sphere_radius), -1, np.int64)
         for k in range(len(cs.sphere_radius)):
             slot = int(cs.sphere_material[k])
@@ -118,10 +131,13 @@ class Emitters:
             if cs.sphere_radius[k] <= 0:  # a disk or cylinder (kernels/common.py's codes)
                 w2o = np.vstack([cs.sphere_world_to_object[k], [0, 0, 0, 1.0]])
                 e._add(AREA_SHAPE, table.emission[slot], dict(o2w=np.linalg.inv(w2o)[:3], w2o=w2o[:3],
-                                                              code=cs.sphere_radius[k], flip=bool(table.flip[slot])))
+                                                              code=cs.sphere_radius[k], flip=bool(table.flip[slot]),
+                                                              texture=tex[slot]))
                 continue
             center, radius = _world_sphere(cs, k)
-            e._add(AREA_SPHERE, table.emission[slot], dict(center=center, radius=radius, flip=bool(table.flip[slot])))
+            e._add(AREA_SPHERE, table.emission[slot], dict(center=center, radius=radius, flip=bool(table.flip[slot]),
+                                                           w2o=cs.sphere_world_to_object[k],
+                                                           object_center=cs.sphere_center[k], texture=tex[slot]))
         scale = 1.0 if scene.radiometric_lights else np.pi
         for light in scene.lights or []:
             if isinstance(light, PointLight):
@@ -152,22 +168,26 @@ class Emitters:
 
     def pack(self) -> tuple:
         """The emitters as the arrays of kernels/path/emitters.py: (kinds, radiance, parameters, triangles,
-        triangle normals, per-emitter area cdfs, triangle -> emitter, sphere -> emitter); made once."""
+        triangle normals and corner UVs, per-emitter area cdfs, triangle -> emitter, sphere -> emitter); made
+        once."""
         if self._packed is None:
             F = np.zeros((self.count, PARAMS))
-            tri_v, tri_n, cdf = [np.zeros((0, 9))], [np.zeros((0, 3))], [np.zeros(0)]
+            tri_v, tri_n, cdf = [np.zeros((0, 9))], [np.zeros((0, 9))], [np.zeros(0)]
             first_tri = first_cdf = 0
             for e, (kind, data) in enumerate(zip(self.kind, self.data, strict=True)):
+                F[e, AREA_TEX] = data["texture"] if kind in (AREA_MESH, AREA_SPHERE, AREA_SHAPE) else -1
                 if kind == AREA_MESH:
                     n = len(data["v"])
                     F[e, [AREA, FIRST_TRI, TRI_COUNT, FIRST_CDF]] = data["area"], first_tri, n, first_cdf
                     tri_v.append(data["v"].reshape(n, 9))
-                    tri_n.append(data["normal"])
+                    tri_n.append(np.hstack([data["normal"], data["uv"]]))
                     cdf.append(data["cdf"])
                     first_tri, first_cdf = first_tri + n, first_cdf + n + 1
                 elif kind == AREA_SPHERE:
                     F[e, CENTER:CENTER + 3] = data["center"]
                     F[e, RADIUS], F[e, SPHERE_FLIP] = data["radius"], data["flip"]
+                    F[e, W2O:W2O + 12], F[e, OBJECT_CENTER:OBJECT_CENTER + 3] = (data["w2o"].reshape(12),
+                                                                               data["object_center"])
                 elif kind == AREA_SHAPE:
                     F[e, O2W:O2W + 12], F[e, W2O:W2O + 12] = data["o2w"].reshape(12), data["w2o"].reshape(12)
                     F[e, SHAPE_CODE], F[e, SHAPE_FLIP] = data["code"], data["flip"]

@@ -24,10 +24,13 @@ from ..kernels.path.bounce import dim1, dim2
 from ..kernels.path.warps import frame3, power_heuristic1, to_local3
 from ..scene.cameras import image_camera
 from . import film
-from .bsdfs import eval_pdf
+from .bsdfs import TEXTURED_PARAMS, eval_pdf
 from .path import PIXEL_KEY, PathTracer
 from .raycaster import RenderContext
 from .sampling import key, sobol_pair, uniform
+from .textures import mean
+
+EMISSION_TEX = TEXTURED_PARAMS.index("emission")  # the BSDF table's column naming an area light's radiance texture
 
 OBJECT_KINDS = {TRIANGLE: "triangle", SPHERE: "sphere", PLANE: "plane"}
 
@@ -123,6 +126,9 @@ class _Recorder:
         if b["kind"][i] != MISS:
             slot = int(b["slot_em"][i])
             radiance = tracer.table.emission[slot] if slot >= 0 else np.zeros(3)
+            tex = int(tracer.table.tex[slot, EMISSION_TEX]) if slot >= 0 else -1
+            if tex >= 0:  # a textured area light: its radiance at the hit's UV, as the kernel looked it up
+                radiance = tracer.table.textures.eval3(tex, b["uvd"][i, :2])[0]
         else:  # the environment, or a course scene's background for camera rays
             radiance = tracer._misses(b["d"][i:i + 1], np.zeros(1, bool), depth)[0][0]
         if not np.any(radiance > 0):
@@ -178,7 +184,8 @@ def _bsdf_name(material) -> str:
     bsdf = getattr(material, "bsdf", None)
     name = type(bsdf if bsdf is not None else material).__name__
     radiance = getattr(material, "radiance", None)
-    return name + (" + area emitter" if radiance is not None and np.any(np.asarray(radiance) > 0) else "")
+    glows = radiance is not None and np.any(mean(radiance) > 0)  # a colour, or a texture's mean
+    return name + (" + area emitter" if glows else "")
 
 
 def explain_path_pixel(ctx: RenderContext, width: int, height: int, x: int, y: int) -> list[dict]:

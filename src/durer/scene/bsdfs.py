@@ -305,7 +305,8 @@ BSDF = (Diffuse | Dielectric | ThinDielectric | RoughDielectric | Conductor | Ro
 @dataclass
 class Surface:
     """What a shape's material index names under the path tracer: a BSDF (or a course PhongMaterial), the radiance
-    it emits from its front side (None: not a light) and whether its normals are flipped (Mitsuba's flip_normals)."""
+    it emits from its front side (None: not a light; a colour, or a Bitmap or Checker looked up at the surface's
+    UV) and whether its normals are flipped (Mitsuba's flip_normals)."""
 
     bsdf: object
     radiance: np.ndarray | None = None
@@ -313,5 +314,5 @@ class Surface:
 
     def __post_init__(self):
         if self.radiance is not None:
-            self.radiance = _albedo(_constant(self.radiance, "an area emitter's radiance"), "radiance")
+            self.radiance = _albedo(self.radiance, "radiance")
         self.flip_normals = bool(self.flip_normals)

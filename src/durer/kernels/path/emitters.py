@@ -2,8 +2,11 @@
 pdf with which that sampling would have chosen a point found by a BSDF-sampled ray. Emitters are packed by
 rendering/emitters.py (which documents the models): per emitter a kind, a radiance and a row of parameters; the
 triangles of mesh emitters are concatenated with one area cdf per emitter. An environment map is sampled by
-kernels/path/envmap.py over its tables (`env`). A spot's projected texture is looked up in the path tracer's texture
-table (`tex` = (TI, TD), kernels/path/textures.py), as the BSDFs' are."""
+kernels/path/envmap.py over its tables (`env`). A spot's projected texture and an area emitter's textured radiance
+are looked up in the path tracer's texture table (`tex` = (TI, TD), kernels/path/textures.py), as the BSDFs' are: the
+radiance at the sampled point's UV (barycentric UVs on triangles, the shape's parametrisation on spheres, disks and
+cylinders, as surface.uv_at gives a hit), the point still sampled by area or solid angle alone, so the pdfs do not
+depend on the texture."""
 
 from __future__ import annotations
 
@@ -22,21 +25,24 @@ AREA_MESH, AREA_SPHERE, POINT, DIRECTIONAL, ENVIRONMENT, ENVMAP, AREA_SHAPE, SPO
 # linear in the angle), its texture's index in the texture table (-1: none), its right and up axes x y z and
 # tan(outer) (Mitsuba's projection: scene/lights.SpotLight.texture_uv); directional lights direction x y z; meshes
 # area, first triangle, triangle count, first cdf entry; disks and cylinders (AREA_SHAPE) their object-to-world
-# and world-to-object 3x4 rows, shape code, flip
-CENTER, RADIUS, SPHERE_FLIP = 0, 3, 4
+# and world-to-object 3x4 rows, shape code, flip; spheres also their world-to-object rows and object-space centre
+# (for the UV); every area emitter its radiance texture's index in the texture table (-1: a constant radiance)
+CENTER, RADIUS, SPHERE_FLIP, OBJECT_CENTER = 0, 3, 4, 5
 POSITION, ATTENUATION = 0, 3
 AXIS, COS_OUTER, COS_INNER, OUTER, INNER, FALLOFF = 6, 9, 10, 11, 12, 13
 SPOT_TEX, RIGHT, UP, TAN_OUTER = 14, 15, 18, 21
 DIRECTION = 0
 AREA, FIRST_TRI, TRI_COUNT, FIRST_CDF = 0, 1, 2, 3
 O2W, W2O, SHAPE_CODE, SHAPE_FLIP = 0, 12, 24, 25
-PARAMS = 26
+AREA_TEX = 26
+PARAMS = 27
 INSIDE_SLACK = 1.0 + 1e-9  # a point this close to a sphere's surface counts as inside (sampled by area)
 
 
 @nb.njit(**JIT, inline="always")
 def _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1):
-    """A point uniform by area on mesh emitter e: (point, normal)."""
+    """A point uniform by area on mesh emitter e: (point, normal, (u, v)); tri_n rows: the triangle's unit normal,
+    then its corners' texture coordinates u0 v0 u1 v1 u2 v2 (zeros without UVs, as surface.uv_at)."""
     first, count, c0 = int(F[e, FIRST_TRI]), int(F[e, TRI_COUNT]), int(F[e, FIRST_CDF])
     lo, hi = 0, count  # the last j with cdf[j] <= u0 (NumPy's searchsorted(side="right") - 1)
     while hi - lo > 1:
@@ -54,7 +60,9 @@ def _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1):
     t = first + j
     return ((b0 * tri_v[t, 0] + b1 * tri_v[t, 3] + b2 * tri_v[t, 6], b0 * tri_v[t, 1] + b1 * tri_v[t, 4] +
              b2 * tri_v[t, 7], b0 * tri_v[t, 2] + b1 * tri_v[t, 5] + b2 * tri_v[t, 8]),
-            (tri_n[t, 0], tri_n[t, 1], tri_n[t, 2]))
+            (tri_n[t, 0], tri_n[t, 1], tri_n[t, 2]),
+            (b0 * tri_n[t, 3] + b1 * tri_n[t, 5] + b2 * tri_n[t, 7], b0 * tri_n[t, 4] + b1 * tri_n[t, 6] +
+             b2 * tri_n[t, 8]))
 
 
 @nb.njit(**JIT, inline="always")
@@ -104,14 +112,16 @@ def _shape_jacobian(F, e, qx, qy):
 @nb.njit(**JIT, inline="always")
 def _shape_point(F, e, u0, u1):
     """A point on disk or cylinder emitter e: (world point, unit world normal (flipped as the surface emits),
-    area pdf)."""
+    area pdf, (u, v) by Mitsuba's parametrisation: the cylinder's (phi / 2 pi, z), the disk's (r, phi / 2 pi))."""
     phi = 2.0 * math.pi * u1
     c, s = math.cos(phi), math.sin(phi)
     if F[e, SHAPE_CODE] == CYLINDER_CODE:
         qx, qy, qz, nx, ny, nz = c, s, u0, c, s, 0.0
+        uv = (u1, u0)
     else:
         r = math.sqrt(u0)
         qx, qy, qz, nx, ny, nz = r * c, r * s, 0.0, 0.0, 0.0, 1.0
+        uv = (r, u1)
     y = (F[e, O2W] * qx + F[e, O2W + 1] * qy + F[e, O2W + 2] * qz + F[e, O2W + 3],
          F[e, O2W + 4] * qx + F[e, O2W + 5] * qy + F[e, O2W + 6] * qz + F[e, O2W + 7],
          F[e, O2W + 8] * qx + F[e, O2W + 9] * qy + F[e, O2W + 10] * qz + F[e, O2W + 11])
@@ -121,7 +131,21 @@ def _shape_point(F, e, u0, u1):
     wz = F[e, W2O + 2] * nx + F[e, W2O + 6] * ny + F[e, W2O + 10] * nz
     ln = math.sqrt(wx * wx + wy * wy + wz * wz)
     sign = (-1.0 if F[e, SHAPE_FLIP] != 0 else 1.0) / max(ln, 1e-300)
-    return y, (wx * sign, wy * sign, wz * sign), 1.0 / max(_shape_jacobian(F, e, qx, qy), 1e-300)
+    return y, (wx * sign, wy * sign, wz * sign), 1.0 / max(_shape_jacobian(F, e, qx, qy), 1e-300), uv
+
+
+@nb.njit(**JIT, inline="always")
+def _sphere_uv(F, e, y):
+    """Mitsuba's sphere parametrisation (phi / 2 pi, theta / pi) of world point y on sphere emitter e, from its
+    object-space point (surface.uv_at's)."""
+    qx = F[e, W2O] * y[0] + F[e, W2O + 1] * y[1] + F[e, W2O + 2] * y[2] + F[e, W2O + 3] - F[e, OBJECT_CENTER]
+    qy = F[e, W2O + 4] * y[0] + F[e, W2O + 5] * y[1] + F[e, W2O + 6] * y[2] + F[e, W2O + 7] - F[e, OBJECT_CENTER + 1]
+    qz = F[e, W2O + 8] * y[0] + F[e, W2O + 9] * y[1] + F[e, W2O + 10] * y[2] + F[e, W2O + 11] - F[e, OBJECT_CENTER + 2]
+    phi = math.atan2(qy, qx)
+    if phi < 0:
+        phi += 2.0 * math.pi
+    r = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-300)
+    return phi / (2.0 * math.pi), math.acos(min(max(qz / r, -1.0), 1.0)) / math.pi
 
 
 @nb.njit(**JIT, inline="always")
@@ -154,11 +178,12 @@ def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, tex, e, px, py, pz, u0, 
         s = 4.0 * math.pi
         return uniform_sphere3(u0, u1), math.inf, (R[e, 0] * s, R[e, 1] * s, R[e, 2] * s), 1.0 / s
     inside = False
+    uv = (0.0, 0.0)
     if k == AREA_MESH:
-        y, nrm = _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1)
+        y, nrm, uv = _mesh_point(F, tri_v, tri_n, tri_cdf, e, u0, u1)
         area_pdf = 1.0 / F[e, AREA]
     elif k == AREA_SHAPE:
-        y, nrm, area_pdf = _shape_point(F, e, u0, u1)
+        y, nrm, area_pdf, uv = _shape_point(F, e, u0, u1)
     else:  # AREA_SPHERE: by the solid angle of its cone from outside, uniformly by area from inside
         cx, cy, cz, r = F[e, CENTER], F[e, CENTER + 1], F[e, CENTER + 2], F[e, RADIUS]
         tx, ty, tz = cx - px, cy - py, cz - pz
@@ -182,6 +207,8 @@ def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, tex, e, px, py, pz, u0, 
             area_pdf = uniform_cone_pdf(cos_max)
         sign = -1.0 if F[e, SPHERE_FLIP] != 0 else 1.0
         nrm = ((y[0] - cx) / r * sign, (y[1] - cy) / r * sign, (y[2] - cz) / r * sign)
+        if F[e, AREA_TEX] >= 0:
+            uv = _sphere_uv(F, e, y)
     tx, ty, tz = y[0] - px, y[1] - py, y[2] - pz
     dist = math.sqrt(tx * tx + ty * ty + tz * tz)
     inv = 1.0 / max(dist, 1e-300)
@@ -191,7 +218,10 @@ def emitter_sample(K, R, F, tri_v, tri_n, tri_cdf, env, tex, e, px, py, pz, u0, 
         return d, dist, (0.0, 0.0, 0.0), 0.0
     pdf = area_pdf if k == AREA_SPHERE and not inside else area_pdf * dist * dist / max(cos_l, 1e-300)
     m = 1.0 / max(pdf, 1e-300)
-    return d, dist, (R[e, 0] * m, R[e, 1] * m, R[e, 2] * m), pdf
+    le0, le1, le2 = R[e, 0], R[e, 1], R[e, 2]
+    if F[e, AREA_TEX] >= 0:
+        le0, le1, le2 = tex_eval3(tex[0], tex[1], int(F[e, AREA_TEX]), uv[0], uv[1])
+    return d, dist, (le0 * m, le1 * m, le2 * m), pdf
 
 
 @nb.njit(**JIT)
