@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kernels.path.bsdf import (
+from ..kernels.path.columns import (
     AU,
     AV,
     BECKMANN,
