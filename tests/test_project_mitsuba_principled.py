@@ -1,8 +1,9 @@
 """Mitsuba's `principled` BSDF through the whole pipeline: Mitsuba's material preview object (the set's
 docs/scenes/include/matpreview.xml, its film made small) given a principled BSDF, read from XML and rendered by durer
 and by Mitsuba 3 from the same file: image means within 2%, each channel's within 3%. Three materials between them
-exercise every lobe: a metal with a clearcoat, a rough glass (transmission) and a textured base colour with sheen,
-specular tint and anisotropy (oriented by the mesh's dp/du). Slow: the path tracer's kernels and Mitsuba's render."""
+exercise every lobe: an anisotropic metal with a clearcoat, a rough glass (transmission) and a textured base colour
+with sheen, specular tint and anisotropy (the anisotropic ones oriented by the mesh's dp/du, as Mitsuba does).
+Slow: the path tracer's kernels and Mitsuba's render."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from durer.io.mitsuba import load_mitsuba
 BSDFS = {
     "gold-clearcoat": '<rgb name="base_color" value="0.9 0.6 0.2"/><float name="metallic" value="0.8"/>'
                       '<float name="roughness" value="0.35"/><float name="clearcoat" value="0.7"/>'
-                      '<float name="clearcoat_gloss" value="0.6"/>',
+                      '<float name="clearcoat_gloss" value="0.6"/><float name="anisotropic" value="0.8"/>',
     "rough-glass": '<rgb name="base_color" value="0.8 0.9 1.0"/><float name="spec_trans" value="0.9"/>'
                    '<float name="roughness" value="0.2"/><float name="eta" value="1.45"/>',
     "textured-sheen": '<texture type="checkerboard" name="base_color"><rgb name="color0" value="0.8 0.2 0.1"/>'
