@@ -1,6 +1,7 @@
-"""Mitsuba's principled BSDF in durer's kernels (kernels/path/principled.py): eval, pdf and sample against Mitsuba 3's
-own values in scalar_rgb from both sides, for constant and textured (base_color, roughness) parameters; sampling
-against the pdf (chi-square) and the sampled weights' mean against the integral of eval (unbiased)."""
+"""Mitsuba's principled and principledthin BSDFs in durer's kernels (kernels/path/principled.py, principledthin.py):
+eval, pdf and sample against Mitsuba 3's own values in scalar_rgb from both sides, for constant and textured
+(base_color, roughness) parameters; sampling against the pdf (chi-square) and the sampled weights' mean against the
+integral of eval (unbiased)."""
 
 from __future__ import annotations
 
@@ -29,6 +30,15 @@ CASES = [
      "clearcoat": 0.5, "spec_trans": 0.4, "metallic": 0.2, "sheen": 0.3},
     {"eta": 1.0, "roughness": 0.25},
     {"base_color": "rgb.png", "roughness": "grey.png", "metallic": 0.3, "spec_trans": 0.3, "clearcoat": 0.4},
+    # principledthin
+    {"thin": True},
+    {"thin": True, "roughness": 0.3, "base_color": [0.8, 0.3, 0.1], "spec_trans": 0.6, "diff_trans": 0.4},
+    {"thin": True, "flatness": 0.6, "diff_trans": 1.3, "spec_trans": 0.2, "roughness": 0.8, "anisotropic": 0.5},
+    {"thin": True, "spec_tint": 0.7, "spec_trans": 0.5, "sheen": 0.7, "sheen_tint": 0.4, "eta": 1.3,
+     "base_color": [0.2, 0.6, 0.9]},
+    {"thin": True, "spec_trans": 0.5, "diff_trans": 0.5, "specular_reflectance_sampling_rate": 0.3,
+     "diffuse_transmittance_sampling_rate": 2.0, "specular_transmittance_sampling_rate": 0.7},
+    {"thin": True, "base_color": "rgb.png", "roughness": "grey.png", "spec_trans": 0.4, "diff_trans": 0.6},
 ]
 
 
@@ -41,15 +51,19 @@ def pngs(tmp_path_factory):
     return d
 
 
-def _both(case: dict, d) -> tuple[dict, B.Principled]:
-    """Mitsuba's dict and durer's description of one case (a name ending in .png: a bitmap of that file)."""
-    md, kw = {"type": "principled"}, {}
+def _both(case: dict, d) -> tuple[dict, B.Principled | B.PrincipledThin]:
+    """Mitsuba's dict and durer's description of one case (a name ending in .png: a bitmap of that file; "thin":
+    principledthin)."""
+    thin = case.get("thin", False)
+    md, kw = {"type": "principledthin" if thin else "principled"}, {}
     for k, v in case.items():
+        if k == "thin":
+            continue
         if isinstance(v, str):
             md[k], kw[k] = {"type": "bitmap", "filename": str(d / v)}, Bitmap(read_texture(str(d / v)))
         else:
             md[k], kw[k] = ({"type": "rgb", "value": v} if isinstance(v, list) else v), v
-    return md, B.Principled(**kw)
+    return md, (B.PrincipledThin if thin else B.Principled)(**kw)
 
 
 def _sphere_dirs(n, seed):
@@ -85,9 +99,10 @@ def test_principled_matches_mitsuba(pngs, case):
             assert s_pdf[k] == pytest.approx(p, rel=1e-3)
             np.testing.assert_allclose(s_w[k], np.array(list(b.eval(ctx, si, mi.Vector3f(s_wo[k])))) / p, rtol=1e-3,
                                        atol=1e-6)
-            refracted = s_wo[k, 2] * wi[k, 2] < 0
-            eta = ours.relative_eta if wi[k, 2] > 0 else 1 / ours.relative_eta
-            assert s_eta[k] == pytest.approx(eta if refracted else 1.0)
+            eta = 1.0  # reflected, or through a thin sheet
+            if isinstance(ours, B.Principled) and s_wo[k, 2] * wi[k, 2] < 0:
+                eta = ours.relative_eta if wi[k, 2] > 0 else 1 / ours.relative_eta
+            assert s_eta[k] == pytest.approx(eta)
         else:
             assert not s_w[k].any()
     np.testing.assert_allclose(value, mv, rtol=1e-3, atol=1e-6)
@@ -115,14 +130,22 @@ def _grid(nt, nphi):
 
 SAMPLED = [{"roughness": 0.5, "base_color": [0.7, 0.5, 0.3], "clearcoat": 0.6, "sheen": 0.5},
            {"roughness": 0.4, "spec_trans": 0.7, "metallic": 0.2, "eta": 1.4},
-           {"roughness": 0.6, "anisotropic": 0.8, "metallic": 0.6, "main_specular_sampling_rate": 0.4}]
+           {"roughness": 0.6, "anisotropic": 0.8, "metallic": 0.6, "main_specular_sampling_rate": 0.4},
+           {"thin": True, "roughness": 0.5, "spec_trans": 0.5, "diff_trans": 0.8, "flatness": 0.5, "sheen": 0.4}]
 
 
-@pytest.mark.parametrize(("case", "cos_i"), [(c, x) for c in range(len(SAMPLED)) for x in (0.3, 0.9)] + [(1, -0.6)])
+def _ours(case: dict):
+    kw = {k: v for k, v in case.items() if k != "thin"}
+    return B.PrincipledThin(**kw) if case.get("thin") else B.Principled(**kw)
+
+
+@pytest.mark.parametrize(("case", "cos_i"), [(c, x) for c in range(len(SAMPLED)) for x in (0.3, 0.9)]
+                         + [(1, -0.6), (3, -0.6)])
 def test_sampling_matches_pdf(case, cos_i):
     """Histogram of sampled directions over (cos theta, phi) bins against the pdf integrated over each bin (from
-    behind only where light passes: an opaque principled samples nothing there, as Mitsuba's)."""
-    table = BSDFTable.from_materials([B.Principled(**SAMPLED[case])])
+    behind only where light passes: an opaque principled samples nothing there, as Mitsuba's; a thin one is the
+    same from both sides)."""
+    table = BSDFTable.from_materials([_ours(SAMPLED[case])])
     n = 40000
     wi, (wo, _, pdf, _, _) = _sample_dirs(table, cos_i, n, 2)
     ok = pdf > 0
@@ -146,7 +169,7 @@ def test_sampling_matches_pdf(case, cos_i):
 @pytest.mark.parametrize("case", range(len(SAMPLED)))
 def test_sampled_weights_average_to_the_integral_of_eval(case):
     """E[weight] = the integral of f cos over the sphere (the estimator is unbiased), the integral by quadrature."""
-    table = BSDFTable.from_materials([B.Principled(**SAMPLED[case])])
+    table = BSDFTable.from_materials([_ours(SAMPLED[case])])
     d, cell = _grid(400, 800)
     for cos_i in (0.5, -0.8) if SAMPLED[case].get("spec_trans") else (0.5,):
         n = 40000

@@ -56,6 +56,7 @@ from ..kernels.path.columns import (
     PR_ANISO,
     PRINCIPLED,
     PRINCIPLED_PARAMS,
+    PRINCIPLEDTHIN,
     ROUGHCONDUCTOR,
     ROUGHDIELECTRIC,
     ROUGHPLASTIC,
@@ -80,6 +81,7 @@ from ..scene.bsdfs import (
     NormalMap,
     Plastic,
     Principled,
+    PrincipledThin,
     RoughConductor,
     RoughDielectric,
     RoughPlastic,
@@ -219,9 +221,12 @@ def _row(m, textures: TextureTable) -> dict:
         r.update(kind=BLEND, weight=m.weight, children=(m.bsdf0, m.bsdf1))
     elif isinstance(m, Diffuse):
         r.update(kind=DIFFUSE, c1=m.reflectance)
-    elif isinstance(m, Principled):
-        r.update(kind=PRINCIPLED, c1=m.base_color, alpha_u=m.roughness, eta=m.relative_eta,
-                 principled=np.array([getattr(m, name) for name in PRINCIPLED_PARAMS], dtype=np.float64))
+    elif isinstance(m, (Principled, PrincipledThin)):
+        thin = isinstance(m, PrincipledThin)
+        names = {"main_specular_sampling_rate": "specular_reflectance_sampling_rate"} if thin else {}
+        r.update(kind=PRINCIPLEDTHIN if thin else PRINCIPLED, c1=m.base_color, alpha_u=m.roughness,
+                 eta=m.eta if thin else m.relative_eta,
+                 principled=np.array([getattr(m, names.get(n, n), 0.0) for n in PRINCIPLED_PARAMS], np.float64))
     elif isinstance(m, RoughDielectric):
         r.update(kind=ROUGHDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
                  eta=m.int_ior / m.ext_ior, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")

@@ -249,14 +249,7 @@ class Principled:
             raise ValueError(f"principled specular must be in [0, 12.5) (eta from it), got {self.specular!r}")
         if self.eta is not None:
             self.eta = ior(self.eta, "principled eta")
-        rates = ("main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate")
-        for name in rates:
-            x = _number(getattr(self, name), name)
-            if not x >= 0:
-                raise ValueError(f"{name} must not be negative, got {x!r}")
-            setattr(self, name, x)
-        if not any(getattr(self, name) > 0 for name in rates):
-            raise ValueError("principled needs a sampling rate above zero")
+        _rates(self, ("main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"))
 
     @property
     def relative_eta(self) -> float:
@@ -264,6 +257,53 @@ class Principled:
         if self.eta is not None:
             return self.eta
         return 2.0 / (1.0 - float(np.sqrt(0.08 * self.specular))) - 1.0
+
+
+@dataclass
+class PrincipledThin:
+    """Mitsuba's `principledthin`: the Disney BSDF of a thin two-sided sheet (leaves, paper, cloth): diffuse
+    reflection with `flatness` towards a subsurface look, `diff_trans` passing diffusely, `spec_trans` passing as a
+    rough glossy sheet; base_color and roughness may be textures, the rest are numbers (eta a positive index)."""
+
+    base_color: np.ndarray = 0.5
+    roughness: float = 0.5
+    anisotropic: float = 0.0
+    spec_trans: float = 0.0
+    spec_tint: float = 0.0
+    sheen: float = 0.0
+    sheen_tint: float = 0.0
+    flatness: float = 0.0
+    diff_trans: float = 0.0
+    eta: float = 1.5
+    specular_reflectance_sampling_rate: float = 1.0
+    specular_transmittance_sampling_rate: float = 1.0
+    diffuse_reflectance_sampling_rate: float = 1.0
+    diffuse_transmittance_sampling_rate: float = 1.0
+
+    def __post_init__(self):
+        self.base_color = _albedo(self.base_color, "principledthin base_color")
+        self.roughness = _fraction(self.roughness, "principledthin roughness")
+        for name in ("anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness"):
+            what = f"principledthin {name}"
+            setattr(self, name, _unit_number(_constant(getattr(self, name), what), what))
+        what = "principledthin diff_trans"  # Mitsuba's range: its diffuse transmission is diff_trans / 2
+        self.diff_trans = _number(_constant(self.diff_trans, what), what)
+        if not 0 <= self.diff_trans <= 2:
+            raise ValueError(f"{what} must be in [0, 2], got {self.diff_trans!r}")
+        self.eta = ior(_constant(self.eta, "principledthin eta"), "principledthin eta")
+        _rates(self, ("specular_reflectance_sampling_rate", "specular_transmittance_sampling_rate",
+                      "diffuse_reflectance_sampling_rate", "diffuse_transmittance_sampling_rate"))
+
+
+def _rates(bsdf, names: tuple[str, ...]) -> None:
+    """Check a principled BSDF's lobe sampling rates: numbers, none negative, not all zero."""
+    for name in names:
+        x = _number(getattr(bsdf, name), name)
+        if not x >= 0:
+            raise ValueError(f"{name} must not be negative, got {x!r}")
+        setattr(bsdf, name, x)
+    if not any(getattr(bsdf, name) > 0 for name in names):
+        raise ValueError(f"{type(bsdf).__name__.lower()} needs a sampling rate above zero")
 
 
 @dataclass
@@ -351,7 +391,7 @@ def _unit_number(v, what: str) -> float:
 
 
 BSDF = (Diffuse | Dielectric | ThinDielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic
-        | Principled | TwoSided | Blend | Mask | NormalMap | BumpMap)
+        | Principled | PrincipledThin | TwoSided | Blend | Mask | NormalMap | BumpMap)
 
 
 @dataclass

@@ -8,8 +8,8 @@ f(wi, wo) cos(theta_o), sample returns wo with weight = f cos / pdf, and delta l
 
 Parameters that Mitsuba takes as textures name a texture of kernels/path/textures.py in their TEX_* column (-1: the
 constant column holds the value); the bounce resolves such a row at the hit's UV into a scratch row first
-(textures.resolve_row), so every function here reads plain numbers. The principled BSDF's functions are in
-kernels/path/principled.py. Two modifiers apply to any row: OPACITY (Mitsuba's
+(textures.resolve_row), so every function here reads plain numbers. The principled BSDFs' functions are in
+kernels/path/principled.py and kernels/path/principledthin.py. Two modifiers apply to any row: OPACITY (Mitsuba's
 `mask`: the ray passes through with probability 1 - opacity, a delta lobe) and TWOSIDED; a BLEND row mixes the rows
 CHILD0 and CHILD1 by WEIGHT (Mitsuba's `blendbsdf`).
 """
@@ -41,6 +41,7 @@ from .columns import (
     PLASTIC,
     PR_ANISO,
     PRINCIPLED,
+    PRINCIPLEDTHIN,
     ROUGHCONDUCTOR,
     ROUGHDIELECTRIC,
     ROUGHPLASTIC,
@@ -51,6 +52,7 @@ from .columns import (
 )
 from .microfacet import d1, fresnel1, fresnel_conductor1, g11, sample_visible1
 from .principled import principled_eval, principled_sample
+from .principledthin import principledthin_eval, principledthin_sample
 from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
 
 
@@ -60,7 +62,7 @@ def anisotropic(P, s):
     dp/du frame (warps.tangent_frame3); the rest keep frame3(n), whatever the tangent, so their images stay."""
     k = P[s, KIND]
     return ((k == ROUGHCONDUCTOR or k == ROUGHDIELECTRIC) and P[s, AU] != P[s, AV]) or (
-        k == PRINCIPLED and P[s, PR_ANISO] != 0)
+        (k == PRINCIPLED or k == PRINCIPLEDTHIN) and P[s, PR_ANISO] != 0)
 
 
 @nb.njit(**JIT, inline="always")
@@ -246,6 +248,8 @@ def leaf_eval(P, T, s, wi, wo):
         return _roughdielectric_eval(P, s, wi, wo)
     if k == PRINCIPLED:
         return principled_eval(P, s, wi, wo)
+    if k == PRINCIPLEDTHIN:
+        return principledthin_eval(P, s, wi, wo)
     return 0.0, 0.0, 0.0, 0.0  # dielectric, thin dielectric, conductor (delta lobes only), black
 
 
@@ -420,6 +424,8 @@ def leaf_sample(P, T, s, wi, u1, u20, u21):
         wo, w, pdf, delta, eta = _thindielectric_sample(P, s, wi, u1)
     elif k == PRINCIPLED:
         wo, w, pdf, delta, eta = principled_sample(P, s, wi, u1, u20, u21)
+    elif k == PRINCIPLEDTHIN:
+        wo, w, pdf, delta, eta = principledthin_sample(P, s, wi, u1, u20, u21)
     else:
         wo, w, pdf, delta, eta = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False, 1.0
     if flip:
@@ -441,6 +447,8 @@ def leaf_albedo(P, s, wiz):
                 P[s, C1 + 2] + P[s, C2 + 2] + P[s, C3 + 2] + P[s, C4 + 2])
     if not wiz > 0:
         return 0.0, 0.0, 0.0
+    if k == PRINCIPLEDTHIN:  # the same from both sides
+        return P[s, C1], P[s, C1 + 1], P[s, C1 + 2]
     if k == DIFFUSE or k == PLASTIC or k == ROUGHPLASTIC or k == PRINCIPLED:
         return P[s, C1], P[s, C1 + 1], P[s, C1 + 2]
     if k == ROUGHCONDUCTOR:

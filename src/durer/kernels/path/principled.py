@@ -45,28 +45,28 @@ LUMA = (0.212671, 0.715160, 0.072169)  # Mitsuba's luminance of linear sRGB
 
 
 @nb.njit(**JIT, inline="always")
-def _schlick_weight(c):
+def schlick_weight(c):
     m = min(max(1.0 - c, 0.0), 1.0)
     return m * m * m * m * m
 
 
 @nb.njit(**JIT)
-def _schlick(r0, cos_i, eta):
+def schlick(r0, cos_i, eta):
     """Schlick's Fresnel towards r0 at cos_i, seen through an interface of relative index eta: from the denser side
     it follows the refracted angle (1 where totally reflected)."""
     eta_it = eta if cos_i >= 0 else 1.0 / eta
     if eta_it > 1.0:
-        w = _schlick_weight(abs(cos_i))
+        w = schlick_weight(abs(cos_i))
     else:
         cos_t2 = 1.0 - (1.0 - cos_i * cos_i) / (eta_it * eta_it)
-        w = _schlick_weight(math.sqrt(max(cos_t2, 0.0)))
+        w = schlick_weight(math.sqrt(max(cos_t2, 0.0)))
     return w * (1.0 - r0) + r0
 
 
 @nb.njit(**JIT, inline="always")
-def _alphas(P, s):
-    """GGX alpha_u, alpha_v from roughness and anisotropic (Mitsuba's calc_dist_params)."""
-    r2 = P[s, AU] * P[s, AU]
+def alphas(P, s, roughness):
+    """GGX alpha_u, alpha_v from a roughness and the row's anisotropic (Mitsuba's calc_dist_params)."""
+    r2 = roughness * roughness
     aspect = math.sqrt(1.0 - 0.9 * P[s, PR_ANISO])
     return max(1e-3, r2 / aspect), max(1e-3, r2 * aspect)
 
@@ -115,11 +115,11 @@ def _fresnel_principled(P, s, c, f, cos_ih, front, lum):
     if not front:
         return (1.0 - metallic) * P[s, PR_SPEC_TRANS] * f
     base = P[s, C1 + c]
-    out = (1.0 - metallic) * (1.0 - spec_tint) * f + metallic * _schlick(base, cos_ih, eta)
+    out = (1.0 - metallic) * (1.0 - spec_tint) * f + metallic * schlick(base, cos_ih, eta)
     if spec_tint > 0:
         eta_it = eta if cos_ih >= 0 else 1.0 / eta
         r0 = ((eta_it - 1.0) / (eta_it + 1.0)) ** 2
-        out += (1.0 - metallic) * spec_tint * _schlick((base / lum if lum > 0 else 1.0) * r0, cos_ih, eta)
+        out += (1.0 - metallic) * spec_tint * schlick((base / lum if lum > 0 else 1.0) * r0, cos_ih, eta)
     return out
 
 
@@ -160,7 +160,7 @@ def principled_eval(P, s, wi, wo):
     f = fresnel1(dih, eta)[0]
     sg = 1.0 if front else -1.0
     compatible = dih * sg > 0 and (doh * sg > 0) == reflect  # the microfacet seen from both sides as the lobe needs
-    ax, ay = _alphas(P, s)
+    ax, ay = alphas(P, s, P[s, AU])
     d = ggx_d1(hx, hy, hz, ax, ay)
     g = ggx_g11(wi[0], wi[1], wi[2], hx, hy, hz, ax, ay) * ggx_g11(wo[0], wo[1], wo[2], hx, hy, hz, ax, ay)
     lum = LUMA[0] * P[s, C1] + LUMA[1] * P[s, C1 + 1] + LUMA[2] * P[s, C1 + 2]
@@ -173,17 +173,17 @@ def principled_eval(P, s, wi, wo):
     alpha_cc = 0.1 + gloss * (0.001 - 0.1)
     cc = 0.0
     if reflect and compatible and front and clearcoat > 0:
-        cc = (0.25 * clearcoat * (0.04 + 0.96 * _schlick_weight(abs(dih))) * _gtr1_d(hz, alpha_cc)
+        cc = (0.25 * clearcoat * (0.04 + 0.96 * schlick_weight(abs(dih))) * _gtr1_d(hz, alpha_cc)
               * _smith_ggx1(wi[0], wi[1], wi[2], hx, hy, hz, 0.25)
               * _smith_ggx1(wo[0], wo[1], wo[2], hx, hy, hz, 0.25) * abs(co))
     diffuse, sheen = 0.0, 0.0
     if reflect and front and brdf > 0:
-        fo, fi = _schlick_weight(abs(co)), _schlick_weight(abs(ci))
+        fo, fi = schlick_weight(abs(co)), schlick_weight(abs(ci))
         rr = 2.0 * P[s, AU] * doh * doh
         retro = rr * (fo + fi + fo * fi * (rr - 1.0))
         diffuse = brdf * abs(co) * INV_PI * ((1.0 - 0.5 * fi) * (1.0 - 0.5 * fo) + retro)
         if P[s, PR_SHEEN] > 0 and metallic < 1:
-            sheen = P[s, PR_SHEEN] * (1.0 - metallic) * _schlick_weight(abs(doh)) * abs(co)
+            sheen = P[s, PR_SHEEN] * (1.0 - metallic) * schlick_weight(abs(doh)) * abs(co)
     v0 = _channel(P, s, 0, f, dih, front, lum, spec, trans, cc, diffuse, sheen)
     v1 = _channel(P, s, 1, f, dih, front, lum, spec, trans, cc, diffuse, sheen)
     v2 = _channel(P, s, 2, f, dih, front, lum, spec, trans, cc, diffuse, sheen)
@@ -210,7 +210,7 @@ def principled_sample(P, s, wi, u1, u20, u21):
     if ci == 0 or not (front or (1.0 - P[s, PR_METALLIC]) * P[s, PR_SPEC_TRANS] > 0):
         return zero
     sg = 1.0 if front else -1.0
-    ax, ay = _alphas(P, s)
+    ax, ay = alphas(P, s, P[s, AU])
     mx, my, mz = ggx_sample_visible1(wi[0] * sg, wi[1] * sg, ci * sg, u20, u21, ax, ay)
     dim = wi[0] * mx + wi[1] * my + wi[2] * mz
     f, cos_t, eta_it, eta_ti = fresnel1(dim, P[s, ETA])
