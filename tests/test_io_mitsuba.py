@@ -13,7 +13,7 @@ from PIL import Image
 
 import durer
 from durer.errors import SceneError
-from durer.scene.bsdfs import Dielectric, Principled, Surface
+from durer.scene.bsdfs import Dielectric, Principled, PrincipledThin, Surface
 from durer.scene.textures import Bitmap
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -60,6 +60,12 @@ def test_principled_reads_mitsubas_parameters(tmp_path):
     q = write(tmp_path, '<shape type="sphere"><bsdf type="principled"><float name="eta" value="1.33"/></bsdf></shape>')
     b = durer.load(q).materials[0].bsdf
     assert b.relative_eta == 1.33 and b.roughness == 0.5 and np.allclose(b.base_color, 0.5)  # Mitsuba's defaults
+    q = write(tmp_path, '<shape type="rectangle"><bsdf type="principledthin"><float name="diff_trans" value="1.2"/>'
+                        '<float name="flatness" value="0.4"/><float name="eta" value="1.3"/>'
+                        '<float name="specular_transmittance_sampling_rate" value="0.5"/></bsdf></shape>')
+    b = durer.load(q).materials[0].bsdf
+    assert isinstance(b, PrincipledThin) and (b.diff_trans, b.flatness, b.eta, b.spec_trans) == (1.2, 0.4, 1.3, 0.0)
+    assert b.specular_transmittance_sampling_rate == 0.5 and b.diffuse_transmittance_sampling_rate == 1.0
 
 
 def test_load_dict_matches_the_xml():
@@ -91,7 +97,13 @@ def test_load_dict_of_mitsuba_itself():
 ERRORS = [
     ("<shape type=\"sphere\">", 4, "malformed XML"),
     ("<shape type=\"bunny\"/>", 3, "unsupported shape 'bunny'"),
-    ("<bsdf type=\"principledthin\" id=\"x\"/>", 3, "unsupported bsdf 'principledthin'"),
+    ("<bsdf type=\"null\" id=\"x\"/>", 3, "unsupported bsdf 'null'"),
+    ("<bsdf type=\"principledthin\" id=\"x\">\n<texture type=\"checkerboard\" name=\"eta\"/></bsdf>", 4,
+     "durer cannot texture principledthin's eta (give a number)"),
+    ("<bsdf type=\"principledthin\" id=\"x\">\n<float name=\"diff_trans\" value=\"2.5\"/></bsdf>", 3,
+     "principledthin diff_trans must be in [0, 2], got 2.5"),
+    ("<bsdf type=\"principledthin\" id=\"x\">\n<float name=\"metallic\" value=\"0.5\"/></bsdf>", 4,
+     "unsupported parameter 'metallic' of bsdf 'principledthin'"),
     ("<bsdf type=\"principled\" id=\"x\">\n<texture type=\"checkerboard\" name=\"metallic\"/></bsdf>", 4,
      "durer cannot texture principled's metallic (give a number)"),
     ("<bsdf type=\"principled\" id=\"x\"><float name=\"eta\" value=\"1.4\"/>\n"
