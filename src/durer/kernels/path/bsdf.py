@@ -59,8 +59,8 @@ from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
 @nb.njit(**JIT, inline="always")
 def anisotropic(P, s):
     """Does slot s's BSDF depend on the tangent's direction (alpha_u != alpha_v, or a principled BSDF's anisotropic
-    above 0)? Only these are shaded in Mitsuba's
-    dp/du frame (warps.tangent_frame3); the rest keep frame3(n), whatever the tangent, so their images stay."""
+    above 0)? Only these are shaded in Mitsuba's dp/du frame (warps.tangent_frame3); the rest keep frame3(n),
+    whatever the tangent, so their images stay."""
     k = P[s, KIND]
     return ((k == ROUGHCONDUCTOR or k == ROUGHDIELECTRIC) and P[s, AU] != P[s, AV]) or (
         (k == PRINCIPLED or k == PRINCIPLEDTHIN) and P[s, PR_ANISO] != 0)
