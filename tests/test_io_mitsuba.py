@@ -9,10 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 import durer
 from durer.errors import SceneError
-from durer.scene.bsdfs import Dielectric, Surface
+from durer.scene.bsdfs import Dielectric, Principled, PrincipledThin, Surface
+from durer.scene.textures import Bitmap
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CAM = ('<sensor type="perspective"><float name="fov" value="40"/>'
@@ -41,6 +43,29 @@ def test_caustic_scene_and_defaults(tmp_path):
     p = write(tmp_path, '<default name="r" value="0.25"/><shape type="sphere">'
                         '<float name="radius" value="$r"/></shape>')
     assert durer.load(p).group.objects[0].object.radius == 0.25
+
+
+def test_principled_reads_mitsubas_parameters(tmp_path):
+    Image.fromarray(np.full((2, 2), 128, np.uint8), mode="L").save(tmp_path / "r.png")
+    p = write(tmp_path, '<shape type="sphere"><bsdf type="principled"><rgb name="base_color" value="0.2 0.4 0.6"/>'
+                        '<texture type="bitmap" name="roughness"><string name="filename" value="r.png"/></texture>'
+                        '<float name="metallic" value="0.3"/><float name="specular" value="0.6"/>'
+                        '<float name="clearcoat" value="0.5"/><float name="clearcoat_sampling_rate" value="2"/>'
+                        '</bsdf></shape>')
+    b = durer.load(p).materials[0].bsdf
+    assert isinstance(b, Principled) and isinstance(b.roughness, Bitmap)
+    np.testing.assert_allclose(b.base_color, [0.2, 0.4, 0.6])
+    assert (b.metallic, b.clearcoat, b.clearcoat_sampling_rate, b.spec_trans, b.sheen) == (0.3, 0.5, 2.0, 0.0, 0.0)
+    assert b.relative_eta == pytest.approx(2 / (1 - np.sqrt(0.08 * 0.6)) - 1)  # Mitsuba's eta from specular
+    q = write(tmp_path, '<shape type="sphere"><bsdf type="principled"><float name="eta" value="1.33"/></bsdf></shape>')
+    b = durer.load(q).materials[0].bsdf
+    assert b.relative_eta == 1.33 and b.roughness == 0.5 and np.allclose(b.base_color, 0.5)  # Mitsuba's defaults
+    q = write(tmp_path, '<shape type="rectangle"><bsdf type="principledthin"><float name="diff_trans" value="1.2"/>'
+                        '<float name="flatness" value="0.4"/><float name="eta" value="1.3"/>'
+                        '<float name="specular_transmittance_sampling_rate" value="0.5"/></bsdf></shape>')
+    b = durer.load(q).materials[0].bsdf
+    assert isinstance(b, PrincipledThin) and (b.diff_trans, b.flatness, b.eta, b.spec_trans) == (1.2, 0.4, 1.3, 0.0)
+    assert b.specular_transmittance_sampling_rate == 0.5 and b.diffuse_transmittance_sampling_rate == 1.0
 
 
 def test_load_dict_matches_the_xml():
@@ -72,7 +97,21 @@ def test_load_dict_of_mitsuba_itself():
 ERRORS = [
     ("<shape type=\"sphere\">", 4, "malformed XML"),
     ("<shape type=\"bunny\"/>", 3, "unsupported shape 'bunny'"),
-    ("<bsdf type=\"principled\" id=\"x\"/>", 3, "unsupported bsdf 'principled'"),
+    ("<bsdf type=\"null\" id=\"x\"/>", 3, "unsupported bsdf 'null'"),
+    ("<bsdf type=\"principledthin\" id=\"x\">\n<texture type=\"checkerboard\" name=\"eta\"/></bsdf>", 4,
+     "durer cannot texture principledthin's eta (give a number)"),
+    ("<bsdf type=\"principledthin\" id=\"x\">\n<float name=\"diff_trans\" value=\"2.5\"/></bsdf>", 3,
+     "principledthin diff_trans must be in [0, 2], got 2.5"),
+    ("<bsdf type=\"principledthin\" id=\"x\">\n<float name=\"metallic\" value=\"0.5\"/></bsdf>", 4,
+     "unsupported parameter 'metallic' of bsdf 'principledthin'"),
+    ("<bsdf type=\"principled\" id=\"x\">\n<texture type=\"checkerboard\" name=\"metallic\"/></bsdf>", 4,
+     "durer cannot texture principled's metallic (give a number)"),
+    ("<bsdf type=\"principled\" id=\"x\"><float name=\"eta\" value=\"1.4\"/>\n"
+     "<float name=\"specular\" value=\"0.3\"/></bsdf>", 4, "principled: give eta or specular, not both"),
+    ("<bsdf type=\"principled\" id=\"x\">\n<float name=\"metallic\" value=\"1.5\"/></bsdf>", 3,
+     "principled metallic must be in [0, 1], got 1.5"),
+    ("<bsdf type=\"principled\" id=\"x\">\n<rgb name=\"roughness\" value=\"0.1 0.2 0.3\"/></bsdf>", 4,
+     "roughness"),
     ("<emitter type=\"photon\"/>", 3, "unsupported emitter 'photon'"),
     ("<emitter type=\"spot\">\n<texture type=\"bitmap\" name=\"texture\"/></emitter>", 4,
      "bitmap needs a filename"),

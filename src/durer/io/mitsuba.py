@@ -75,7 +75,8 @@ _DICT_TYPES = {
     "shape": ("obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk", "cylinder", "sdfgrid", "shapegroup",
               "instance"),
     "bsdf": ("diffuse", "dielectric", "thindielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
-             "roughplastic", "twosided", "blendbsdf", "mask", "bumpmap", "normalmap", "principled", "null"),
+             "roughplastic", "twosided", "blendbsdf", "mask", "bumpmap", "normalmap", "principled",
+             "principledthin", "null"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "texture": ("bitmap", "checkerboard"),
 }

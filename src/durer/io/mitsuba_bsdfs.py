@@ -12,7 +12,16 @@ from .images import read_texture
 from .mitsuba_tree import Props, call
 
 BSDFS = ("diffuse", "dielectric", "thindielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic", "twosided", "blendbsdf", "mask", "normalmap", "bumpmap")
+         "roughplastic", "principled", "principledthin", "twosided", "blendbsdf", "mask", "normalmap", "bumpmap")
+# principled's parameters that durer reads as numbers only (base_color and roughness may be textures)
+PRINCIPLED_NUMBERS = {"anisotropic": 0.0, "metallic": 0.0, "spec_trans": 0.0, "spec_tint": 0.0, "sheen": 0.0,
+                      "sheen_tint": 0.0, "clearcoat": 0.0, "clearcoat_gloss": 0.0, "specular": 0.5,
+                      "main_specular_sampling_rate": 1.0, "clearcoat_sampling_rate": 1.0,
+                      "diffuse_reflectance_sampling_rate": 1.0}
+THIN_NUMBERS = {"anisotropic": 0.0, "spec_trans": 0.0, "spec_tint": 0.0, "sheen": 0.0, "sheen_tint": 0.0,
+                "flatness": 0.0, "diff_trans": 0.0, "eta": 1.5, "specular_reflectance_sampling_rate": 1.0,
+                "specular_transmittance_sampling_rate": 1.0, "diffuse_reflectance_sampling_rate": 1.0,
+                "diffuse_transmittance_sampling_rate": 1.0}
 TEXTURES = ("bitmap", "checkerboard")
 
 
@@ -144,6 +153,21 @@ def _wrapper(builder, node, p: Props, depth: int):
     return call(node, B.TwoSided, inner[0])
 
 
+def _principled(builder, node, p: Props):
+    """Mitsuba's principled and principledthin: base_color and roughness as colours / numbers or textures, the rest
+    numbers; principled's eta or specular, not both (as Mitsuba)."""
+    thin = node.type == "principledthin"
+    numbers = THIN_NUMBERS if thin else {**PRINCIPLED_NUMBERS, "eta": None}
+    for c in node.children:
+        if c.name in numbers:
+            raise c.error(f"durer cannot texture {node.type}'s {c.name} (give a number)")
+    if not thin and "eta" in node.props and "specular" in node.props:
+        raise node.error("principled: give eta or specular, not both (as Mitsuba)", p.where("specular"))
+    kw = {name: p.get(name, default, float) for name, default in numbers.items()}
+    return call(node, B.PrincipledThin if thin else B.Principled, colour(builder, node, p, "base_color", 0.5),
+                scalar(builder, node, p, "roughness", 0.5), **kw)
+
+
 def _bsdf(builder, node, depth: int):
     p = Props(node)
     t = node.type
@@ -186,6 +210,8 @@ def _bsdf(builder, node, depth: int):
             out = call(node, cls.named, material or "none", **kw)
         else:
             out = call(node, cls, 0.0 if eta is None else eta, 1.0 if k is None else k, **kw)
+    elif t in ("principled", "principledthin"):
+        out = _principled(builder, node, p)
     elif t in ("plastic", "roughplastic"):
         args = (colour(builder, node, p, "diffuse_reflectance", 0.5),
                 colour(builder, node, p, "specular_reflectance", 1.0),

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kernels.path.bsdf import (
+from ..kernels.path.columns import (
     AU,
     AV,
     BECKMANN,
@@ -53,6 +53,10 @@ from ..kernels.path.bsdf import (
     OPACITY,
     PHONG,
     PLASTIC,
+    PR_ANISO,
+    PRINCIPLED,
+    PRINCIPLED_PARAMS,
+    PRINCIPLEDTHIN,
     ROUGHCONDUCTOR,
     ROUGHDIELECTRIC,
     ROUGHPLASTIC,
@@ -76,6 +80,8 @@ from ..scene.bsdfs import (
     Mask,
     NormalMap,
     Plastic,
+    Principled,
+    PrincipledThin,
     RoughConductor,
     RoughDielectric,
     RoughPlastic,
@@ -124,6 +130,7 @@ class BSDFTable:
     child1: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     tex: np.ndarray = field(default_factory=lambda: np.zeros((0, len(TEXTURED_PARAMS)), np.int64))  # ids or -1
     bump_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    principled: np.ndarray = field(default_factory=lambda: np.zeros((0, len(PRINCIPLED_PARAMS))))  # PR_* columns
     textures: TextureTable = field(default_factory=TextureTable)
     _packed: tuple | None = None
 
@@ -144,6 +151,7 @@ class BSDFTable:
             setattr(t, name, np.array([r[name] for r in rows]))
         t.kind = t.kind.astype(np.int8)
         t.tex = t.tex.reshape(len(rows), len(TEXTURED_PARAMS))
+        t.principled = t.principled.reshape(len(rows), len(PRINCIPLED_PARAMS))
         return t
 
     def smooth(self, slot: np.ndarray) -> np.ndarray:
@@ -167,6 +175,7 @@ class BSDFTable:
                 P[:, col] = value
             P[:, TROW] = np.arange(n)
             P[:, TEX_C1:TEX_C1 + len(TEXTURED_PARAMS)] = self.tex
+            P[:, PR_ANISO:PR_ANISO + len(PRINCIPLED_PARAMS)] = self.principled
             textured = (self.tex >= 0).any(axis=1)
             blend = self.kind == BLEND
             textured[blend] |= textured[self.child0[blend]] | textured[self.child1[blend]]
@@ -185,7 +194,7 @@ def _row(m, textures: TextureTable) -> dict:
              alpha_u=0.1, alpha_v=0.1, exponent=1.0, spec_weight=0.0, fdr_int=0.0, nonlinear=False,
              transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False, beckmann=False,
              opacity=1.0, weight=0.0, child0=0, child1=0, tex=np.full(len(TEXTURED_PARAMS), -1), bump_scale=0.0,
-             children=())
+             principled=np.zeros(len(PRINCIPLED_PARAMS)), children=())
     if isinstance(m, Surface):
         if m.radiance is not None:
             r["emission"] = m.radiance
@@ -212,6 +221,12 @@ def _row(m, textures: TextureTable) -> dict:
         r.update(kind=BLEND, weight=m.weight, children=(m.bsdf0, m.bsdf1))
     elif isinstance(m, Diffuse):
         r.update(kind=DIFFUSE, c1=m.reflectance)
+    elif isinstance(m, (Principled, PrincipledThin)):
+        thin = isinstance(m, PrincipledThin)
+        names = {"main_specular_sampling_rate": "specular_reflectance_sampling_rate"} if thin else {}
+        r.update(kind=PRINCIPLEDTHIN if thin else PRINCIPLED, c1=m.base_color, alpha_u=m.roughness,
+                 eta=m.eta if thin else m.relative_eta,
+                 principled=np.array([getattr(m, names.get(n, n), 0.0) for n in PRINCIPLED_PARAMS], np.float64))
     elif isinstance(m, RoughDielectric):
         r.update(kind=ROUGHDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
                  eta=m.int_ior / m.ext_ior, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")

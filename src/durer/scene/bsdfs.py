@@ -215,6 +215,98 @@ class RoughPlastic(Plastic):
 
 
 @dataclass
+class Principled:
+    """Mitsuba's `principled`: the Disney principled BSDF (a diffuse base with retro-reflection and sheen, a GGX
+    specular lobe towards the base colour as `metallic` grows, rough transmission by `spec_trans`, a clearcoat).
+    base_color and roughness may be textures; the rest are numbers in [0, 1]. The index is `eta`, else Mitsuba's
+    2 / (1 - sqrt(0.08 specular)) - 1 (specular 0.5: eta 1.5); the three rates weigh the lobes' sampling."""
+
+    base_color: np.ndarray = 0.5
+    roughness: float = 0.5
+    anisotropic: float = 0.0
+    metallic: float = 0.0
+    spec_trans: float = 0.0
+    spec_tint: float = 0.0
+    sheen: float = 0.0
+    sheen_tint: float = 0.0
+    clearcoat: float = 0.0
+    clearcoat_gloss: float = 0.0
+    specular: float = 0.5
+    eta: float | None = None
+    main_specular_sampling_rate: float = 1.0
+    clearcoat_sampling_rate: float = 1.0
+    diffuse_reflectance_sampling_rate: float = 1.0
+
+    def __post_init__(self):
+        self.base_color = _albedo(self.base_color, "principled base_color")
+        self.roughness = _fraction(self.roughness, "principled roughness")
+        for name in ("anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "clearcoat",
+                     "clearcoat_gloss"):
+            what = f"principled {name}"
+            setattr(self, name, _unit_number(_constant(getattr(self, name), what), what))
+        self.specular = _number(self.specular, "principled specular")
+        if not 0 <= self.specular < 12.5:
+            raise ValueError(f"principled specular must be in [0, 12.5) (eta from it), got {self.specular!r}")
+        if self.eta is not None:
+            self.eta = ior(self.eta, "principled eta")
+        _rates(self, ("main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"))
+
+    @property
+    def relative_eta(self) -> float:
+        """The index of refraction inside over outside."""
+        if self.eta is not None:
+            return self.eta
+        return 2.0 / (1.0 - float(np.sqrt(0.08 * self.specular))) - 1.0
+
+
+@dataclass
+class PrincipledThin:
+    """Mitsuba's `principledthin`: the Disney BSDF of a thin two-sided sheet (leaves, paper, cloth): diffuse
+    reflection with `flatness` towards a subsurface look, `diff_trans` passing diffusely, `spec_trans` passing as a
+    rough glossy sheet; base_color and roughness may be textures, the rest are numbers (eta a positive index)."""
+
+    base_color: np.ndarray = 0.5
+    roughness: float = 0.5
+    anisotropic: float = 0.0
+    spec_trans: float = 0.0
+    spec_tint: float = 0.0
+    sheen: float = 0.0
+    sheen_tint: float = 0.0
+    flatness: float = 0.0
+    diff_trans: float = 0.0
+    eta: float = 1.5
+    specular_reflectance_sampling_rate: float = 1.0
+    specular_transmittance_sampling_rate: float = 1.0
+    diffuse_reflectance_sampling_rate: float = 1.0
+    diffuse_transmittance_sampling_rate: float = 1.0
+
+    def __post_init__(self):
+        self.base_color = _albedo(self.base_color, "principledthin base_color")
+        self.roughness = _fraction(self.roughness, "principledthin roughness")
+        for name in ("anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness"):
+            what = f"principledthin {name}"
+            setattr(self, name, _unit_number(_constant(getattr(self, name), what), what))
+        what = "principledthin diff_trans"  # Mitsuba's range: its diffuse transmission is diff_trans / 2
+        self.diff_trans = _number(_constant(self.diff_trans, what), what)
+        if not 0 <= self.diff_trans <= 2:
+            raise ValueError(f"{what} must be in [0, 2], got {self.diff_trans!r}")
+        self.eta = ior(_constant(self.eta, "principledthin eta"), "principledthin eta")
+        _rates(self, ("specular_reflectance_sampling_rate", "specular_transmittance_sampling_rate",
+                      "diffuse_reflectance_sampling_rate", "diffuse_transmittance_sampling_rate"))
+
+
+def _rates(bsdf, names: tuple[str, ...]) -> None:
+    """Check a principled BSDF's lobe sampling rates: numbers, none negative, not all zero."""
+    for name in names:
+        x = _number(getattr(bsdf, name), name)
+        if not x >= 0:
+            raise ValueError(f"{name} must not be negative, got {x!r}")
+        setattr(bsdf, name, x)
+    if not any(getattr(bsdf, name) > 0 for name in names):
+        raise ValueError(f"{type(bsdf).__name__.lower()} needs a sampling rate above zero")
+
+
+@dataclass
 class TwoSided:
     """The same BSDF on both sides of the surface."""
 
@@ -299,7 +391,7 @@ def _unit_number(v, what: str) -> float:
 
 
 BSDF = (Diffuse | Dielectric | ThinDielectric | RoughDielectric | Conductor | RoughConductor | Plastic | RoughPlastic
-        | TwoSided | Blend | Mask | NormalMap | BumpMap)
+        | Principled | PrincipledThin | TwoSided | Blend | Mask | NormalMap | BumpMap)
 
 
 @dataclass

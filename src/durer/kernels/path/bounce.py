@@ -19,7 +19,7 @@ import numba as nb
 import numpy as np
 
 from ..common import JIT, MISS, SPHERE, TRIANGLE
-from .bsdf import COLUMNS, EMISSION, FLIP, SMOOTH, TEXTURED
+from .columns import COLUMNS, EMISSION, FLIP, SMOOTH, TEXTURED
 from .compose import bsdf_albedo, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
 from .envmap import envmap_eval_pdf, has_map

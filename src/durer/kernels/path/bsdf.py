@@ -1,6 +1,6 @@
 """The path tracer's BSDFs as scalar Numba functions: evaluation, importance sampling and pdfs of one direction
-pair, read from a packed table (one float64 row per material slot, columns below; rendering/bsdfs.py builds it and
-documents the models and the course's Phong mapping).
+pair, read from a packed table (one float64 row per material slot, its columns in kernels/path/columns.py;
+rendering/bsdfs.py builds it and documents the models and the course's Phong mapping).
 
 Directions are in the local frame of the (possibly flipped) surface normal, z up, both pointing away from the
 surface: wi towards where the path came from, wo the new direction. As in Mitsuba 3, eval returns
@@ -8,7 +8,8 @@ f(wi, wo) cos(theta_o), sample returns wo with weight = f cos / pdf, and delta l
 
 Parameters that Mitsuba takes as textures name a texture of kernels/path/textures.py in their TEX_* column (-1: the
 constant column holds the value); the bounce resolves such a row at the hit's UV into a scratch row first
-(textures.resolve_row), so every function here reads plain numbers. Two modifiers apply to any row: OPACITY (Mitsuba's
+(textures.resolve_row), so every function here reads plain numbers. The principled BSDFs' functions are in
+kernels/path/principled.py and kernels/path/principledthin.py. Two modifiers apply to any row: OPACITY (Mitsuba's
 `mask`: the ray passes through with probability 1 - opacity, a delta lobe) and TWOSIDED; a BLEND row mixes the rows
 CHILD0 and CHILD1 by WEIGHT (Mitsuba's `blendbsdf`).
 """
@@ -20,31 +21,49 @@ import math
 import numba as nb
 
 from ..common import JIT
+from .columns import (
+    AU,
+    AV,
+    BECKMANN,
+    C1,
+    C2,
+    C3,
+    C4,
+    CONDUCTOR,
+    DIELECTRIC,
+    DIFFUSE,
+    ETA,
+    EXPONENT,
+    FDR_INT,
+    KIND,
+    NONLINEAR,
+    PHONG,
+    PLASTIC,
+    PR_ANISO,
+    PRINCIPLED,
+    PRINCIPLEDTHIN,
+    ROUGHCONDUCTOR,
+    ROUGHDIELECTRIC,
+    ROUGHPLASTIC,
+    SPEC_WEIGHT,
+    THINDIELECTRIC,
+    TROW,
+    TWOSIDED,
+)
 from .microfacet import d1, fresnel1, fresnel_conductor1, g11, sample_visible1
+from .principled import principled_eval, principled_sample
+from .principledthin import principledthin_eval, principledthin_sample
 from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
-
-DIFFUSE, DIELECTRIC, CONDUCTOR, ROUGHCONDUCTOR, PLASTIC, ROUGHPLASTIC, PHONG, BLACK, ROUGHDIELECTRIC = range(9)
-BLEND = 9  # Mitsuba's blendbsdf: (1 - weight) CHILD0 + weight CHILD1
-THINDIELECTRIC = 10
-# columns of the packed table: kind, flags, four colours (3 each), scalars, emission
-KIND, TWOSIDED, C1, C2, C3, C4, ETA, AU, AV, EXPONENT, SPEC_WEIGHT, FDR_INT, NONLINEAR, FLIP, EMISSION, SMOOTH = (
-    0, 1, 2, 5, 8, 11, 14, 15, 16, 17, 18, 19, 20, 21, 22, 25)
-BECKMANN = 26  # rough BSDFs: 1 for Beckmann microfacets, 0 for GGX
-# TROW: the row of the rough plastic's transmittance table (the slot's own; a resolved scratch row keeps it); OPACITY
-# (1: opaque), a blend's WEIGHT and two child rows; TEXTURED: the row (or a blend's child) names a texture or a
-# normal or bump map; TEX_*: texture ids (-1 none) of C1, C2, AU, AV, OPACITY, WEIGHT, EMISSION, the normal map and
-# the bump map (scaled by BUMP_SCALE)
-TROW, OPACITY, WEIGHT, CHILD0, CHILD1, TEXTURED = 27, 28, 29, 30, 31, 32
-TEX_C1, TEX_C2, TEX_AU, TEX_AV, TEX_OPACITY, TEX_WEIGHT, TEX_EMISSION, TEX_NORMAL, TEX_BUMP, BUMP_SCALE = range(33, 43)
-COLUMNS = 43
 
 
 @nb.njit(**JIT, inline="always")
 def anisotropic(P, s):
-    """Does slot s's BSDF depend on the tangent's direction (alpha_u != alpha_v)? Only these are shaded in Mitsuba's
-    dp/du frame (warps.tangent_frame3); the rest keep frame3(n), whatever the tangent, so their images stay."""
+    """Does slot s's BSDF depend on the tangent's direction (alpha_u != alpha_v, or a principled BSDF's anisotropic
+    above 0)? Only these are shaded in Mitsuba's dp/du frame (warps.tangent_frame3); the rest keep frame3(n),
+    whatever the tangent, so their images stay."""
     k = P[s, KIND]
-    return (k == ROUGHCONDUCTOR or k == ROUGHDIELECTRIC) and P[s, AU] != P[s, AV]
+    return ((k == ROUGHCONDUCTOR or k == ROUGHDIELECTRIC) and P[s, AU] != P[s, AV]) or (
+        (k == PRINCIPLED or k == PRINCIPLEDTHIN) and P[s, PR_ANISO] != 0)
 
 
 @nb.njit(**JIT, inline="always")
@@ -228,6 +247,10 @@ def leaf_eval(P, T, s, wi, wo):
         return _phong_eval(P, s, wi, wo)
     if k == ROUGHDIELECTRIC:
         return _roughdielectric_eval(P, s, wi, wo)
+    if k == PRINCIPLED:
+        return principled_eval(P, s, wi, wo)
+    if k == PRINCIPLEDTHIN:
+        return principledthin_eval(P, s, wi, wo)
     return 0.0, 0.0, 0.0, 0.0  # dielectric, thin dielectric, conductor (delta lobes only), black
 
 
@@ -400,6 +423,10 @@ def leaf_sample(P, T, s, wi, u1, u20, u21):
         wo, w, pdf, delta, eta = _roughdielectric_sample(P, s, wi, u1, u20, u21)
     elif k == THINDIELECTRIC:
         wo, w, pdf, delta, eta = _thindielectric_sample(P, s, wi, u1)
+    elif k == PRINCIPLED:
+        wo, w, pdf, delta, eta = principled_sample(P, s, wi, u1, u20, u21)
+    elif k == PRINCIPLEDTHIN:
+        wo, w, pdf, delta, eta = principledthin_sample(P, s, wi, u1, u20, u21)
     else:
         wo, w, pdf, delta, eta = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False, 1.0
     if flip:
@@ -409,9 +436,9 @@ def leaf_sample(P, T, s, wi, u1, u20, u21):
 
 @nb.njit(**JIT)
 def leaf_albedo(P, s, wiz):
-    """A diffuse BSDF's reflectance, a plastic's diffuse reflectance, a rough conductor's
-    specular reflectance times its Fresnel reflectance at normal incidence, the sum of a course Phong material's
-    lobes (scaled to at most 1, as the table holds them). Zero for one-sided BSDFs seen from behind, and for
+    """A diffuse BSDF's reflectance, a plastic's diffuse reflectance, a principled BSDF's base colour, a rough
+    conductor's specular reflectance times its Fresnel reflectance at normal incidence, the sum of a course Phong
+    material's lobes (scaled to at most 1, as the table holds them). Zero for one-sided BSDFs seen from behind, and for
     smooth dielectrics and conductors (the path goes on through them: their albedo is what they show)."""
     k = P[s, KIND]
     if P[s, TWOSIDED] != 0:
@@ -421,7 +448,9 @@ def leaf_albedo(P, s, wiz):
                 P[s, C1 + 2] + P[s, C2 + 2] + P[s, C3 + 2] + P[s, C4 + 2])
     if not wiz > 0:
         return 0.0, 0.0, 0.0
-    if k == DIFFUSE or k == PLASTIC or k == ROUGHPLASTIC:
+    if k == PRINCIPLEDTHIN:  # the same from both sides
+        return P[s, C1], P[s, C1 + 1], P[s, C1 + 2]
+    if k == DIFFUSE or k == PLASTIC or k == ROUGHPLASTIC or k == PRINCIPLED:
         return P[s, C1], P[s, C1 + 1], P[s, C1 + 2]
     if k == ROUGHCONDUCTOR:
         return (P[s, C1] * fresnel_conductor1(1.0, P[s, C3], P[s, C4]),

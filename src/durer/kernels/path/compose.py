@@ -11,20 +11,8 @@ import numba as nb
 import numpy as np
 
 from ..common import JIT
-from .bsdf import (
-    BLEND,
-    CHILD0,
-    CHILD1,
-    COLUMNS,
-    KIND,
-    OPACITY,
-    TEXTURED,
-    TWOSIDED,
-    WEIGHT,
-    leaf_albedo,
-    leaf_eval,
-    leaf_sample,
-)
+from .bsdf import leaf_albedo, leaf_eval, leaf_sample
+from .columns import BLEND, CHILD0, CHILD1, COLUMNS, KIND, OPACITY, TEXTURED, TWOSIDED, WEIGHT
 from .textures import resolve_row
 
 _leaf_eval_call = nb.njit(**JIT)(leaf_eval.py_func)  # a blend's children: called, not inlined (compile time)

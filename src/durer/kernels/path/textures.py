@@ -19,7 +19,8 @@ import math
 import numba as nb
 
 from ..common import JIT
-from .bsdf import (
+from .bsdf import anisotropic
+from .columns import (
     AU,
     AV,
     BLEND,
@@ -41,7 +42,6 @@ from .bsdf import (
     TEX_OPACITY,
     TEX_WEIGHT,
     WEIGHT,
-    anisotropic,
 )
 from .warps import frame3, tangent_frame3
 

@@ -17,7 +17,8 @@ import numpy as np
 from ..bvh.single import blas_any, blas_closest, planes_closest
 from ..common import JIT, MISS, PLANE
 from .bounce import shade_path
-from .bsdf import COLUMNS, TEXTURED, anisotropic
+from .bsdf import anisotropic
+from .columns import COLUMNS, TEXTURED
 from .qmc import mix64
 from .surface import surface_at, uv_at
 
