@@ -49,6 +49,8 @@ from ..kernels.path.bsdf import (
     FDR_INT,
     FLIP,
     KIND,
+    MAP_FLIP,
+    MAP_SHADOW,
     NONLINEAR,
     OPACITY,
     PHONG,
@@ -124,6 +126,8 @@ class BSDFTable:
     child1: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     tex: np.ndarray = field(default_factory=lambda: np.zeros((0, len(TEXTURED_PARAMS)), np.int64))  # ids or -1
     bump_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    map_flip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))    # a normal/bump map's two options
+    map_shadow: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     textures: TextureTable = field(default_factory=TextureTable)
     _packed: tuple | None = None
 
@@ -163,7 +167,8 @@ class BSDFTable:
                                (FLIP, self.flip), (ETA, self.eta), (AU, self.alpha_u), (AV, self.alpha_v),
                                (EXPONENT, self.exponent), (SPEC_WEIGHT, self.spec_weight), (FDR_INT, self.fdr_int),
                                (BECKMANN, self.beckmann), (OPACITY, self.opacity), (WEIGHT, self.weight),
-                               (CHILD0, self.child0), (CHILD1, self.child1), (BUMP_SCALE, self.bump_scale)):
+                               (CHILD0, self.child0), (CHILD1, self.child1), (BUMP_SCALE, self.bump_scale),
+                               (MAP_FLIP, self.map_flip), (MAP_SHADOW, self.map_shadow)):
                 P[:, col] = value
             P[:, TROW] = np.arange(n)
             P[:, TEX_C1:TEX_C1 + len(TEXTURED_PARAMS)] = self.tex
@@ -185,7 +190,7 @@ def _row(m, textures: TextureTable) -> dict:
              alpha_u=0.1, alpha_v=0.1, exponent=1.0, spec_weight=0.0, fdr_int=0.0, nonlinear=False,
              transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False, beckmann=False,
              opacity=1.0, weight=0.0, child0=0, child1=0, tex=np.full(len(TEXTURED_PARAMS), -1), bump_scale=0.0,
-             children=())
+             map_flip=False, map_shadow=False, children=())
     if isinstance(m, Surface):
         if m.radiance is not None:
             r["emission"] = m.radiance
@@ -198,6 +203,8 @@ def _row(m, textures: TextureTable) -> dict:
             r["normalmap"] = m.normalmap
         elif isinstance(m, BumpMap):
             r["bump"], r["bump_scale"] = m.texture, m.scale
+        if isinstance(m, (NormalMap, BumpMap)):
+            r["map_flip"], r["map_shadow"] = m.flip_invalid_normals, m.use_shadowing_function
         else:
             r["twosided"] = True
         m = m.bsdf
