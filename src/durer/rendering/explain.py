@@ -24,8 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..accel.hits import Hits
-from ..kernels.common import PLANE, SPHERE, TRIANGLE
+from ..accel.hits import Hits, object_kind
 from ..options import RenderOptions
 from ..scene.cameras import image_camera
 from ..scene.graph import Scene
@@ -45,7 +44,6 @@ from .whitted import (
     whitted,
 )
 
-OBJECT_KINDS = {TRIANGLE: "triangle", SPHERE: "sphere", PLANE: "plane"}
 KINDS = ("camera", "shadow", "reflection", "refraction")
 
 
@@ -160,7 +158,8 @@ class _Tracer:
         k = int(mat[0])
         material = self.ctx.scene.materials[k] if 0 <= k < len(self.ctx.scene.materials) else None
         record = {"point": _vec(points[0]), "normal": _vec(normals[0]), "material": k,
-                  "material_type": type(material).__name__, "object": OBJECT_KINDS[int(hits.kind[0])],
+                  "material_type": type(material).__name__,
+                  "object": object_kind(self.ctx.compiled, int(hits.kind[0]), int(hits.prim[0])),
                   "primitive": int(hits.prim[0])}
         return record, (points, normals, mat)
 

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.common import MISS, PLANE, SPHERE, TRIANGLE
+from ..accel.hits import object_kind
+from ..kernels.common import MISS
 from ..kernels.path.bounce import dim1, dim2
 from ..kernels.path.warps import frame3, power_heuristic1, to_local3
 from ..scene.cameras import image_camera
@@ -28,8 +29,6 @@ from .bsdfs import eval_pdf
 from .path import PIXEL_KEY, PathTracer
 from .raycaster import RenderContext
 from .sampling import key, sobol_pair, uniform
-
-OBJECT_KINDS = {TRIANGLE: "triangle", SPHERE: "sphere", PLANE: "plane"}
 
 
 def _vec(a) -> list[float]:
@@ -110,7 +109,8 @@ class _Recorder:
             materials = self.tracer.ctx.scene.materials
             material = materials[slot] if 0 <= slot < len(materials) else None
             hit = {"point": _vec(b["point"][i]), "normal": _vec(b["normal"][i]), "material": slot,
-                   "material_type": _bsdf_name(material), "object": OBJECT_KINDS[int(b["kind"][i])],
+                   "material_type": _bsdf_name(material),
+                   "object": object_kind(self.tracer.ctx.compiled, int(b["kind"][i]), int(b["prim"][i])),
                    "primitive": int(b["prim"][i])}
         return {"kind": kind, "origin": _vec(o), "direction": _vec(d), "t": _num(b["t"][i]) if hit else None,
                 "hit": hit, "depth": depth, "weight": 1.0, "throughput": _vec(b["thr"][i]),
