@@ -126,13 +126,24 @@ def _map_cases(d, flip: bool, shadow: bool):
                    flip, shadow)),
         ({"type": "bumpmap", **opts, "t": bump, "scale": 0.3, "bsdf": {"type": "diffuse", "reflectance": 0.6}},
          B.BumpMap(B.Diffuse(0.6), Bitmap(read_texture(height)), 0.3, flip, shadow)),
+        # seen from both sides (BACK_LIT): a two-sided BSDF inside the map, and glass
+        ({"type": "normalmap", **opts, "normalmap": nmap,
+          "bsdf": {"type": "twosided", "b": {"type": "diffuse", "reflectance": 0.6}}},
+         B.NormalMap(B.TwoSided(B.Diffuse(0.6)), Bitmap(read_texture(normal, True)), flip, shadow)),
+        ({"type": "normalmap", **opts, "normalmap": nmap,
+          "bsdf": {"type": "roughdielectric", "alpha": 0.3, "distribution": "ggx"}},
+         B.NormalMap(B.RoughDielectric(alpha_u=0.3, alpha_v=0.3, distribution="ggx"),
+                     Bitmap(read_texture(normal, True)), flip, shadow)),
     ]
+
+
+BACK_LIT = (5, 6)  # cases whose wi may come from behind the surface
 
 
 # Mitsuba's defaults (both options on) for every case, both off for every case, and each alone for a normal map and
 # a bump map over diffuse
-MAP_CASES = ([(c, True, True) for c in range(5)] + [(c, False, False) for c in range(5)]
-             + [(0, True, False), (0, False, True), (2, True, False), (2, False, True)])
+MAP_CASES = ([(c, True, True) for c in range(7)] + [(c, False, False) for c in range(7)]
+             + [(0, True, False), (0, False, True), (2, True, False), (2, False, True), (5, True, False)])
 
 
 @pytest.mark.parametrize("case,flip,shadow", MAP_CASES)
@@ -140,12 +151,14 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     """normalmap over diffuse and anisotropic roughconductor, bumpmap (scale 1 and 0.3) over diffuse and (0.3) over
     anisotropic roughconductor: eval, pdf and sample at many UVs of a surface with a tilted shading normal and skewed
     dp/du, dp/dv, against Mitsuba's own SurfaceInteraction3f with the same p, n, sh_frame (initialize_sh_frame: dp/du
-    made orthogonal to n), uv, dp/du, dp/dv and wi; with Mitsuba 3.9's flip_invalid_normals (a map normal facing
-    away from wi mirrored about the shading normal; some wi are grazing so that it acts) and
+    made orthogonal to n), uv, dp/du, dp/dv and wi; normalmap over twosided diffuse and over rough glass seen from
+    both sides too; with Mitsuba 3.9's flip_invalid_normals (a map normal on the other side of wi than the shading
+    normal mirrored about it; some wi are grazing so that it acts) and
     use_shadowing_function (Conty Estevez et al.'s terminator term on the value and sampled weight) on, off, and
     each alone. durer's side (shading_frame, then the BSDF in that frame, then textures.map_factor: the test that wo
     stays on the same side of both normals and the shadowing term) is composed here as kernels/path/bounce.py
     composes it."""
+    from durer.kernels.path.bsdf import MAP_FLIP
     from durer.kernels.path.textures import map_factor, shading_frame
 
     mi = _mitsuba()
@@ -153,6 +166,8 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     b = mi.load_dict(mdict)
     table = BSDFTable.from_materials([ours])
     P, _, (TI, TD) = table.packed()
+    P0 = P.copy()
+    P0[:, MAP_FLIP] = 0  # the map's own normal, unflipped
     n = 80
     rng = np.random.default_rng(20 + case)
     uv = rng.uniform(-0.3, 1.3, (n, 2))
@@ -164,6 +179,9 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     wi_l, wo_l = _dirs(n, 6 + case), _dirs(n, 9 + case)  # in Mitsuba's sh_frame, as si.wi and eval's wo
     wi_l[::3, 2] = rng.uniform(0.01, 0.15, len(wi_l[::3]))  # grazing: the map's normal may face away
     wi_l /= np.linalg.norm(wi_l, axis=1, keepdims=True)
+    if case in BACK_LIT:  # some from behind, where Mitsuba flips a map normal that wi sees from its front
+        wi_l[1::2, 2] *= -1
+        wo_l[2::4, 2] *= -1
     wo_l[::7, 2] *= -1  # some below the shading surface: black in both
     u1, u2 = rng.random(n), rng.random((n, 2))
     ctx = mi.BSDFContext()
@@ -188,8 +206,8 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
         wi_w = to_world @ wi_l[k]
         m, s, t, bent = shading_frame(P, 0, TI, TD, tuple(ns[k]), tuple(g), (*uv[k], *dpdu, *dpdv), tuple(wi_w))
         assert bent
-        away += (shading_frame(P, 0, TI, TD, tuple(ns[k]), tuple(g), (*uv[k], *dpdu, *dpdv), tuple(-wi_w))[0]
-                 != m) or np.dot(m, wi_w) < 0
+        m0 = shading_frame(P0, 0, TI, TD, tuple(ns[k]), tuple(g), (*uv[k], *dpdu, *dpdv), tuple(wi_w))[0]
+        away += np.dot(m0, wi_w) * np.dot(ns[k], wi_w) < 0
         to_ours = np.array([s, t, m])
         frames.append((to_ours, to_world, m))
         wo_w.append(to_world @ wo_l[k])
@@ -201,13 +219,13 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     value, pdf = value * factor[:, None], pdf * (factor > 0)
     assert np.allclose(value, m_val, rtol=2e-3, atol=1e-5)
     assert np.allclose(pdf, m_pdf, rtol=2e-3, atol=1e-5)
-    assert (np.array(m_pdf) > 0).sum() >= n // 3 and (factor == 0).sum() >= 3  # both kinds of direction were seen
-    assert away >= 3  # normals facing away from wi were seen (flipped, or black without the flip)
+    assert (np.array(m_pdf) > 0).sum() >= n // 4 and (factor == 0).sum() >= 3  # both kinds of direction were seen
+    assert away >= 3  # map normals on the other side of wi were seen (flipped, or black without the flip)
     if shadow:  # the shadowing term acted, and the options matter
         assert ((factor > 0) & (factor < 0.99)).sum() >= 3
     # sampling: durer's direction (its own warps), brought back to Mitsuba's sh_frame, has Mitsuba's eval / pdf as
     # its weight and Mitsuba's pdf
-    d_wo, d_w, d_pdf, _, _ = sample(table, slot, wi_d, u1, u2, uv)
+    d_wo, d_w, d_pdf, _, d_eta = sample(table, slot, wi_d, u1, u2, uv)
     checked = 0
     for k in range(n):
         to_ours, to_world, m = frames[k]
@@ -221,6 +239,9 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
             assert not np.any(d_w[k] > 1e-6) or mp <= 1e-6
             continue
         assert d_pdf[k] == pytest.approx(mp, rel=2e-3)
+        if (d_eta[k] == 1) == (d_wo[k, 2] * wi_d[k, 2] < 0):  # glass's picked lobe left on its wrong side: weight
+            assert not np.any(d_w[k] != 0)  # 0, as Mitsuba's sample (its eval there is the other lobe's)
+            continue
         assert np.allclose(d_w[k] * f, np.array(list(b.eval(ctx, sis[k], wo_m))) / mp, rtol=2e-3)
         checked += 1
     assert checked >= n // 3

@@ -258,7 +258,7 @@ class Mask:
 class NormalMap:
     """Mitsuba's `normalmap`: the shading frame's normal read from a raw RGB texture (2 rgb - 1, in the frame of the
     surface's tangent dp/du and shading normal). Mitsuba's two options, on by default as there:
-    flip_invalid_normals mirrors a map normal facing away from the viewer about the surface's normal, and
+    flip_invalid_normals mirrors a map normal on the other side of the viewer than the surface's normal about it, and
     use_shadowing_function dims the nested BSDF towards the terminator (Conty Estevez et al. 2019)."""
 
     bsdf: object

@@ -215,8 +215,9 @@ def shading_frame(P, s, TI, TD, n, g, surf, wi):
     orthogonal to n. normalmap: normal 2 rgb - 1 in that frame, tangent s0 made orthogonal to it. bumpmap: dp/du and
     dp/dv tilted along n by the height's gradient times the scale, normal their cross product turned to g's side,
     tangent Mitsuba's sh_frame.to_world(dp/du) (dp/du's world components read as local ones, as Mitsuba 3.9 does)
-    made orthogonal to it. With MAP_FLIP (flip_invalid_normals) a map normal m facing away from wi is mirrored about
-    n first, 2 (m.n) n - m (measured: Mitsuba negates its two tangential components). Anisotropic BSDFs without a
+    made orthogonal to it. With MAP_FLIP (flip_invalid_normals) a map normal m on the other side of wi than n is
+    mirrored about n first, 2 (m.n) n - m (measured: Mitsuba negates its two tangential components; wi from behind
+    flips m where wi.m > 0). Anisotropic BSDFs without a
     map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
     nx, ny, nz = n
     tn, tb = int(P[s, TEX_NORMAL]), int(P[s, TEX_BUMP])
@@ -244,7 +245,8 @@ def shading_frame(P, s, TI, TD, n, g, surf, wi):
                 mx, my, mz = -mx, -my, -mz
             dux, duy, duz = (dux * sx + duy * tx + duz * nx, dux * sy + duy * ty + duz * ny,
                              dux * sz + duy * tz + duz * nz)  # sh_frame.to_world(dp/du), as Mitsuba 3.9
-        if ok and P[s, MAP_FLIP] != 0 and mx * wi[0] + my * wi[1] + mz * wi[2] < 0:
+        if ok and P[s, MAP_FLIP] != 0 and (mx * wi[0] + my * wi[1] + mz * wi[2]) * (nx * wi[0] + ny * wi[1]
+                                                                                  + nz * wi[2]) < 0:
             c = 2.0 * (mx * nx + my * ny + mz * nz)
             mx, my, mz = c * nx - mx, c * ny - my, c * nz - mz
         if ok:
