@@ -134,15 +134,22 @@ def _map_cases(d, flip: bool, shadow: bool):
           "bsdf": {"type": "roughdielectric", "alpha": 0.3, "distribution": "ggx"}},
          B.NormalMap(B.RoughDielectric(alpha_u=0.3, alpha_v=0.3, distribution="ggx"),
                      Bitmap(read_texture(normal, True)), flip, shadow)),
+        # a twosided around the map: Mitsuba mirrors wi and wo before the map sees them
+        ({"type": "twosided", "b": {"type": "normalmap", **opts, "normalmap": nmap,
+                                    "bsdf": {"type": "diffuse", "reflectance": 0.6}}},
+         B.TwoSided(B.NormalMap(B.Diffuse(0.6), Bitmap(read_texture(normal, True)), flip, shadow))),
+        ({"type": "twosided", "b": {"type": "bumpmap", **opts, "t": bump, "scale": 0.3, "bsdf": rough}},
+         B.TwoSided(B.BumpMap(B.RoughConductor(alpha_u=0.1, alpha_v=0.5, distribution="ggx"),
+                              Bitmap(read_texture(height)), 0.3, flip, shadow))),
     ]
 
 
-BACK_LIT = (5, 6)  # cases whose wi may come from behind the surface
+BACK_LIT = (5, 6, 7, 8)  # cases whose wi may come from behind the surface
 
 
 # Mitsuba's defaults (both options on) for every case, both off for every case, and each alone for a normal map and
 # a bump map over diffuse
-MAP_CASES = ([(c, True, True) for c in range(7)] + [(c, False, False) for c in range(7)]
+MAP_CASES = ([(c, True, True) for c in range(9)] + [(c, False, False) for c in range(9)]
              + [(0, True, False), (0, False, True), (2, True, False), (2, False, True), (5, True, False)])
 
 
@@ -151,8 +158,8 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     """normalmap over diffuse and anisotropic roughconductor, bumpmap (scale 1 and 0.3) over diffuse and (0.3) over
     anisotropic roughconductor: eval, pdf and sample at many UVs of a surface with a tilted shading normal and skewed
     dp/du, dp/dv, against Mitsuba's own SurfaceInteraction3f with the same p, n, sh_frame (initialize_sh_frame: dp/du
-    made orthogonal to n), uv, dp/du, dp/dv and wi; normalmap over twosided diffuse and over rough glass seen from
-    both sides too; with Mitsuba 3.9's flip_invalid_normals (a map normal on the other side of wi than the shading
+    made orthogonal to n), uv, dp/du, dp/dv and wi; seen from both sides too: normalmap over twosided diffuse and
+    over rough glass, and a twosided around a normalmap (diffuse) and a bumpmap (anisotropic roughconductor); with Mitsuba 3.9's flip_invalid_normals (a map normal on the other side of wi than the shading
     normal mirrored about it; some wi are grazing so that it acts) and
     use_shadowing_function (Conty Estevez et al.'s terminator term on the value and sampled weight) on, off, and
     each alone. durer's side (shading_frame, then the BSDF in that frame, then textures.map_factor: the test that wo
@@ -181,6 +188,7 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     wi_l /= np.linalg.norm(wi_l, axis=1, keepdims=True)
     if case in BACK_LIT:  # some from behind, where Mitsuba flips a map normal that wi sees from its front
         wi_l[1::2, 2] *= -1
+        wo_l[1::2, 2] *= -1  # mostly on wi's side, some not ([::7] above, and these)
         wo_l[2::4, 2] *= -1
     wo_l[::7, 2] *= -1  # some below the shading surface: black in both
     u1, u2 = rng.random(n), rng.random((n, 2))
@@ -204,16 +212,17 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
         sh = si.sh_frame
         to_world = np.array([list(sh.s), list(sh.t), list(sh.n)]).T
         wi_w = to_world @ wi_l[k]
-        m, s, t, bent = shading_frame(P, 0, TI, TD, tuple(ns[k]), tuple(g), (*uv[k], *dpdu, *dpdv), tuple(wi_w))
+        m, s, t, bent, side_n = shading_frame(P, 0, TI, TD, tuple(ns[k]), tuple(g), (*uv[k], *dpdu, *dpdv),
+                                              tuple(wi_w))
         assert bent
-        m0 = shading_frame(P0, 0, TI, TD, tuple(ns[k]), tuple(g), (*uv[k], *dpdu, *dpdv), tuple(wi_w))[0]
-        away += np.dot(m0, wi_w) * np.dot(ns[k], wi_w) < 0
+        m0, _, _, _, n0 = shading_frame(P0, 0, TI, TD, tuple(ns[k]), tuple(g), (*uv[k], *dpdu, *dpdv), tuple(wi_w))
+        away += np.dot(m0, wi_w) * np.dot(n0, wi_w) < 0
         to_ours = np.array([s, t, m])
-        frames.append((to_ours, to_world, m))
+        frames.append((to_ours, to_world, m, side_n))
         wo_w.append(to_world @ wo_l[k])
         wi_d.append(to_ours @ wi_w)
         wo_d.append(to_ours @ wo_w[-1])
-        factor.append(map_factor(P, 0, tuple(ns[k]), m, tuple(wo_w[-1])))
+        factor.append(map_factor(P, 0, side_n, m, tuple(wo_w[-1])))
     wi_d, wo_d, wo_w, factor = np.array(wi_d), np.array(wo_d), np.array(wo_w), np.array(factor)
     value, pdf = eval_pdf(table, slot, wi_d, wo_d, uv)
     value, pdf = value * factor[:, None], pdf * (factor > 0)
@@ -228,9 +237,9 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     d_wo, d_w, d_pdf, _, d_eta = sample(table, slot, wi_d, u1, u2, uv)
     checked = 0
     for k in range(n):
-        to_ours, to_world, m = frames[k]
+        to_ours, to_world, m, side_n = frames[k]
         world = to_ours.T @ d_wo[k]
-        f = map_factor(P, 0, tuple(ns[k]), m, tuple(world))
+        f = map_factor(P, 0, side_n, m, tuple(world))
         if f == 0:  # bounce.py zeroes these; Mitsuba's sample returns weight 0
             continue
         wo_m = mi.Vector3f(to_world.T @ world)

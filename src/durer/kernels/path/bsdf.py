@@ -34,11 +34,12 @@ BECKMANN = 26  # rough BSDFs: 1 for Beckmann microfacets, 0 for GGX
 # (1: opaque), a blend's WEIGHT and two child rows; TEXTURED: the row (or a blend's child) names a texture or a
 # normal or bump map; TEX_*: texture ids (-1 none) of C1, C2, AU, AV, OPACITY, WEIGHT, EMISSION, the normal map and
 # the bump map (scaled by BUMP_SCALE); a normal or bump map's two options (1: on): MAP_FLIP (Mitsuba's
-# flip_invalid_normals) and MAP_SHADOW (use_shadowing_function)
+# flip_invalid_normals) and MAP_SHADOW (use_shadowing_function); MAP_TWOSIDED: a `twosided` around the map (seen from
+# behind, the map's frame is mirrored, textures.shading_frame; TWOSIDED is the flag of a `twosided` inside it)
 TROW, OPACITY, WEIGHT, CHILD0, CHILD1, TEXTURED = 27, 28, 29, 30, 31, 32
 TEX_C1, TEX_C2, TEX_AU, TEX_AV, TEX_OPACITY, TEX_WEIGHT, TEX_EMISSION, TEX_NORMAL, TEX_BUMP, BUMP_SCALE = range(33, 43)
-MAP_FLIP, MAP_SHADOW = 43, 44
-COLUMNS = 45
+MAP_FLIP, MAP_SHADOW, MAP_TWOSIDED = 43, 44, 45
+COLUMNS = 46
 
 
 @nb.njit(**JIT, inline="always")

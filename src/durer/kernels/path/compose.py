@@ -17,6 +17,7 @@ from .bsdf import (
     CHILD1,
     COLUMNS,
     KIND,
+    MAP_TWOSIDED,
     OPACITY,
     TEXTURED,
     TWOSIDED,
@@ -141,6 +142,8 @@ def sample_kernel(P, T, tex, slot, uv, wi, u1, u2, wo, weight, pdf, delta, eta):
 def bsdf_albedo(P, s, wiz):
     """The reflectance of slot s seen from a direction of local cos(theta) wiz, as the denoiser's albedo feature
     (rendering/path.py): leaf_albedo's, a blend's mix of its two rows', times the opacity of a masked row."""
+    if P[s, MAP_TWOSIDED] != 0:
+        wiz = abs(wiz)
     if P[s, KIND] == BLEND:
         if P[s, TWOSIDED] != 0:
             wiz = abs(wiz)

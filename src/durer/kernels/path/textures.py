@@ -30,6 +30,7 @@ from .bsdf import (
     KIND,
     MAP_FLIP,
     MAP_SHADOW,
+    MAP_TWOSIDED,
     OPACITY,
     TEX_AU,
     TEX_AV,
@@ -208,6 +209,27 @@ def _unit(x, y, z):
 
 @nb.njit(**JIT)
 def shading_frame(P, s, TI, TD, n, g, surf, wi):
+    """_map_frame's frame and the unperturbed normal on its side, which map_factor reads: (normal, tangent s, tangent
+    t, perturbed, side). side is n, or -n where a `twosided` around the map (MAP_TWOSIDED) is seen from behind:
+    Mitsuba's twosided mirrors wi and wo about the surface before the map sees them, which is the map's frame (made
+    for the mirrored wi) mirrored, since the BSDF reads only local coordinates."""
+    nx, ny, nz = n
+    c = 2.0 * (wi[0] * nx + wi[1] * ny + wi[2] * nz)
+    if P[s, MAP_TWOSIDED] == 0 or c >= 0:
+        m, a, b, bent = _map_frame(P, s, TI, TD, n, g, surf, wi)
+        return m, a, b, bent, n
+    m, a, b, bent = _map_frame(P, s, TI, TD, n, g, surf, (wi[0] - c * nx, wi[1] - c * ny, wi[2] - c * nz))
+    return _mirror(m, n), _mirror(a, n), _mirror(b, n), bent, (-nx, -ny, -nz)
+
+
+@nb.njit(**JIT, inline="always")
+def _mirror(v, n):
+    c = 2.0 * (v[0] * n[0] + v[1] * n[1] + v[2] * n[2])
+    return v[0] - c * n[0], v[1] - c * n[1], v[2] - c * n[2]
+
+
+@nb.njit(**JIT)
+def _map_frame(P, s, TI, TD, n, g, surf, wi):
     """The BSDF frame (normal, tangent s, tangent t, perturbed) at a hit with unit shading normal n and geometric
     normal g (both on the side the BSDF uses), surf = (u, v, dp/du, dp/dv), seen from world direction wi: the plain
     frame3(n), or the frame of Mitsuba's normalmap or bumpmap, whose formulas (Mitsuba 3.9, measured through its
