@@ -239,8 +239,7 @@ def _map_frame(P, s, TI, TD, n, g, surf, wi):
     tangent Mitsuba's sh_frame.to_world(dp/du) (dp/du's world components read as local ones, as Mitsuba 3.9 does)
     made orthogonal to it. With MAP_FLIP (flip_invalid_normals) a map normal m on the other side of wi than n is
     mirrored about n first, 2 (m.n) n - m (measured: Mitsuba negates its two tangential components; wi from behind
-    flips m where wi.m > 0). Anisotropic BSDFs without a
-    map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
+    flips m where wi.m > 0). Anisotropic BSDFs without a map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
     nx, ny, nz = n
     tn, tb = int(P[s, TEX_NORMAL]), int(P[s, TEX_BUMP])
     u, v, dux, duy, duz, dvx, dvy, dvz = surf

@@ -5,7 +5,11 @@ any-hit, then the next ray written over the path's own state. No intermediate ar
 the pieces: rendering/path.py calls it once per bounce with the list of live paths.
 
 The numbers are those of the unfused wavefront to the bit: the same functions in the same order per path, and each
-path's light is added in the same order (its emission found, then its shadow ray's light, bounce by bounce)."""
+path's light is added in the same order (its emission found, then its shadow ray's light, bounce by bounce).
+
+Numba's on-disk cache of trace_bounce is keyed on this file alone, not on the shading it inlines: after a change
+there (the normal and bump maps' MAP_* columns and shading_frame's side normal), delete __pycache__ or touch this
+file."""
 
 from __future__ import annotations
 
