@@ -262,3 +262,27 @@ def test_a_camera_less_model_is_explained_through_the_camera_render_frames_for_t
         tree = explain(scene, 24, 12, x, y, shadows=True)
         np.testing.assert_allclose(tree.color, image[y, x], atol=2e-6)
     assert image[6, 12].max() > 0.05  # the ball is in the middle of the wide image
+
+
+def test_disks_and_cylinders_are_named_as_such():
+    """A disk, a sphere and a cylinder (the first and last stored in the sphere slots with DISK_CODE and
+    CYLINDER_CODE radii) side by side, seen from above: each pixel of the middle row names what it hit."""
+    look_down = np.array([[-1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, -1, 6], [0, 0, 0, 1]])  # Mitsuba's look_at from +z
+    disk = np.diag([0.5, 0.5, 1.0, 1.0])
+    disk[0, 3] = -1.5
+    scene = durer.load_dict({
+        "type": "scene", "integrator": {"type": "path", "max_depth": 2},
+        "sensor": {"type": "perspective", "fov": 60, "to_world": look_down,
+                   "film": {"type": "hdrfilm", "width": 24, "height": 5, "rfilter": {"type": "box"}}},
+        "light": {"type": "constant"},
+        "d": {"type": "disk", "to_world": disk},
+        "s": {"type": "sphere", "radius": 0.5},
+        "c": {"type": "cylinder", "p0": [1.5, -1.0, 0.0], "p1": [1.5, 1.0, 0.0], "radius": 0.4}})
+    names = []
+    for x in range(24):
+        (ray,) = explain(scene, 24, 5, x, 2, samples=1).rays
+        names.append(ray["hit"]["object"] if ray["hit"] else None)
+    seen = [n for n in names if n is not None]
+    assert {"disk", "sphere", "cylinder"} == set(seen), names
+    # from left to right in the image, as in the world (x = -1.5, 0, 1.5): disk, sphere, cylinder
+    assert seen == sorted(seen, key=["disk", "sphere", "cylinder"].index), names

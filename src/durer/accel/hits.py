@@ -128,3 +128,12 @@ def hit_materials(cs: CompiledScene, hits: Hits) -> np.ndarray:
         if m.any():
             mat[m] = table[hits.prim[m]]
     return mat
+
+
+def object_kind(cs: CompiledScene, kind: int, prim: int) -> str:
+    """The name of what a hit struck: "triangle", "sphere", "disk", "cylinder" or "plane" ("" for a miss). Disks and
+    cylinders are hits of kind SPHERE, told apart by their slot's radius code (DISK_CODE, CYLINDER_CODE)."""
+    if kind == SPHERE:
+        code = cs.sphere_radius[prim]
+        return "disk" if code == DISK_CODE else "cylinder" if code == CYLINDER_CODE else "sphere"
+    return {TRIANGLE: "triangle", PLANE: "plane"}.get(kind, "")

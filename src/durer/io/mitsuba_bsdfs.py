@@ -127,6 +127,11 @@ def _nested(builder, node, depth: int, count: int) -> list:
     return [build_bsdf(builder, c, depth + 1) for c in inner]
 
 
+def _map_options(p: Props) -> dict:
+    """normalmap's and bumpmap's two booleans, true by default as in Mitsuba 3."""
+    return {name: p.get(name, True, bool) for name in ("flip_invalid_normals", "use_shadowing_function")}
+
+
 def _wrapper(builder, node, p: Props, depth: int):
     """blendbsdf, mask, normalmap, bumpmap and twosided: plugins around nested BSDFs."""
     t = node.type
@@ -140,13 +145,14 @@ def _wrapper(builder, node, p: Props, depth: int):
         tex = _texture(builder, node, "normalmap")
         if tex is None:
             raise node.error("normalmap needs a texture named normalmap")
-        return call(node, B.NormalMap, _nested(builder, node, depth, 1)[0], tex)
+        return call(node, B.NormalMap, _nested(builder, node, depth, 1)[0], tex, **_map_options(p))
     if t == "bumpmap":
         tex = next((build_texture(builder, builder.resolve(c)) for c in node.children
                     if builder.resolve(c).tag == "texture"), None)
         if tex is None:
             raise node.error("bumpmap needs a nested texture")
-        return call(node, B.BumpMap, _nested(builder, node, depth, 1)[0], tex, p.get("scale", 1.0, float))
+        return call(node, B.BumpMap, _nested(builder, node, depth, 1)[0], tex, p.get("scale", 1.0, float),
+                    **_map_options(p))
     inner = _nested(builder, node, depth, 1)  # twosided
     if len(node.children) != 1:
         raise node.error("twosided needs exactly one nested bsdf (durer has no different back side)")

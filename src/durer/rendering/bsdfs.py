@@ -49,6 +49,9 @@ from ..kernels.path.columns import (
     FDR_INT,
     FLIP,
     KIND,
+    MAP_FLIP,
+    MAP_SHADOW,
+    MAP_TWOSIDED,
     NONLINEAR,
     OPACITY,
     PHONG,
@@ -131,6 +134,9 @@ class BSDFTable:
     tex: np.ndarray = field(default_factory=lambda: np.zeros((0, len(TEXTURED_PARAMS)), np.int64))  # ids or -1
     bump_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
     principled: np.ndarray = field(default_factory=lambda: np.zeros((0, len(PRINCIPLED_PARAMS))))  # PR_* columns
+    map_flip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))    # a normal/bump map's two options
+    map_shadow: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    map_twosided: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # a twosided around the map
     textures: TextureTable = field(default_factory=TextureTable)
     _packed: tuple | None = None
 
@@ -171,7 +177,9 @@ class BSDFTable:
                                (FLIP, self.flip), (ETA, self.eta), (AU, self.alpha_u), (AV, self.alpha_v),
                                (EXPONENT, self.exponent), (SPEC_WEIGHT, self.spec_weight), (FDR_INT, self.fdr_int),
                                (BECKMANN, self.beckmann), (OPACITY, self.opacity), (WEIGHT, self.weight),
-                               (CHILD0, self.child0), (CHILD1, self.child1), (BUMP_SCALE, self.bump_scale)):
+                               (CHILD0, self.child0), (CHILD1, self.child1), (BUMP_SCALE, self.bump_scale),
+                               (MAP_FLIP, self.map_flip), (MAP_SHADOW, self.map_shadow),
+                               (MAP_TWOSIDED, self.map_twosided)):
                 P[:, col] = value
             P[:, TROW] = np.arange(n)
             P[:, TEX_C1:TEX_C1 + len(TEXTURED_PARAMS)] = self.tex
@@ -194,7 +202,8 @@ def _row(m, textures: TextureTable) -> dict:
              alpha_u=0.1, alpha_v=0.1, exponent=1.0, spec_weight=0.0, fdr_int=0.0, nonlinear=False,
              transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False, beckmann=False,
              opacity=1.0, weight=0.0, child0=0, child1=0, tex=np.full(len(TEXTURED_PARAMS), -1), bump_scale=0.0,
-             principled=np.zeros(len(PRINCIPLED_PARAMS)), children=())
+             principled=np.zeros(len(PRINCIPLED_PARAMS)), map_flip=False, map_shadow=False, map_twosided=False,
+             children=())
     if isinstance(m, Surface):
         if m.radiance is not None:
             r["emission"] = m.radiance
@@ -203,13 +212,19 @@ def _row(m, textures: TextureTable) -> dict:
     while isinstance(m, (Mask, NormalMap, BumpMap, TwoSided)):  # modifiers of one row, in any order
         if isinstance(m, Mask):
             r["opacity"] = m.opacity
-        elif isinstance(m, NormalMap):
-            r["normalmap"] = m.normalmap
-        elif isinstance(m, BumpMap):
-            r["bump"], r["bump_scale"] = m.texture, m.scale
-        else:
+        elif isinstance(m, (NormalMap, BumpMap)):
+            if isinstance(m, NormalMap):
+                r["normalmap"] = m.normalmap
+            else:
+                r["bump"], r["bump_scale"] = m.texture, m.scale
+            r["map_flip"], r["map_shadow"] = m.flip_invalid_normals, m.use_shadowing_function
+        elif "normalmap" in r or "bump" in r:
             r["twosided"] = True
+        else:  # around a map, if one follows: Mitsuba mirrors wi and wo before the map sees them
+            r["map_twosided"] = True
         m = m.bsdf
+    if r["map_twosided"] and "normalmap" not in r and "bump" not in r:  # no map: an ordinary two-sided BSDF
+        r["twosided"], r["map_twosided"] = True, False
     if m is None:
         return _textures(r, textures)
     if isinstance(m, PhongMaterial):

@@ -25,8 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..accel.hits import Hits
-from ..kernels.common import PLANE, SPHERE, TRIANGLE
+from ..accel.hits import Hits, object_kind
 from ..options import RenderOptions
 from ..scene.cameras import image_camera
 from ..scene.graph import Scene
@@ -47,7 +46,6 @@ from .whitted import (
     whitted,
 )
 
-OBJECT_KINDS = {TRIANGLE: "triangle", SPHERE: "sphere", PLANE: "plane"}
 KINDS = ("camera", "shadow", "reflection", "refraction")
 
 
@@ -163,7 +161,8 @@ class _Tracer:
         materials = self.ctx.bundle.materials
         material = materials[k] if 0 <= k < len(materials) else None
         record = {"point": _vec(points[0]), "normal": _vec(normals[0]), "material": k,
-                  "material_type": type(material).__name__, "object": OBJECT_KINDS[int(hits.kind[0])],
+                  "material_type": type(material).__name__,
+                  "object": object_kind(self.ctx.compiled, int(hits.kind[0]), int(hits.prim[0])),
                   "primitive": int(hits.prim[0])}
         return record, (points, normals, mat)
 

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.common import MISS, PLANE, SPHERE, TRIANGLE
+from ..accel.hits import object_kind
+from ..kernels.common import MISS
 from ..kernels.path.bounce import dim1, dim2
 from ..kernels.path.warps import frame3, power_heuristic1, to_local3
 from ..scene.cameras import image_camera
@@ -31,8 +32,6 @@ from .sampling import key, sobol_pair, uniform
 from .textures import mean
 
 EMISSION_TEX = TEXTURED_PARAMS.index("emission")  # the BSDF table's column naming an area light's radiance texture
-
-OBJECT_KINDS = {TRIANGLE: "triangle", SPHERE: "sphere", PLANE: "plane"}
 
 
 def _vec(a) -> list[float]:
@@ -113,7 +112,8 @@ class _Recorder:
             materials = self.tracer.ctx.bundle.materials
             material = materials[slot] if 0 <= slot < len(materials) else None
             hit = {"point": _vec(b["point"][i]), "normal": _vec(b["normal"][i]), "material": slot,
-                   "material_type": _bsdf_name(material), "object": OBJECT_KINDS[int(b["kind"][i])],
+                   "material_type": _bsdf_name(material),
+                   "object": object_kind(self.tracer.ctx.compiled, int(b["kind"][i]), int(b["prim"][i])),
                    "primitive": int(b["prim"][i])}
         return {"kind": kind, "origin": _vec(o), "direction": _vec(d), "t": _num(b["t"][i]) if hit else None,
                 "hit": hit, "depth": depth, "weight": 1.0, "throughput": _vec(b["thr"][i]),

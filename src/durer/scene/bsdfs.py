@@ -349,14 +349,19 @@ class Mask:
 @dataclass
 class NormalMap:
     """Mitsuba's `normalmap`: the shading frame's normal read from a raw RGB texture (2 rgb - 1, in the frame of the
-    surface's tangent dp/du and shading normal)."""
+    surface's tangent dp/du and shading normal). Mitsuba's two options, on by default as there:
+    flip_invalid_normals mirrors a map normal on the other side of the viewer than the surface's normal about it, and
+    use_shadowing_function dims the nested BSDF towards the terminator (Conty Estevez et al. 2019)."""
 
     bsdf: object
     normalmap: Bitmap
+    flip_invalid_normals: bool = True
+    use_shadowing_function: bool = True
 
     def __post_init__(self):
         if not isinstance(self.normalmap, (Bitmap, Checker)):
             raise ValueError("a normal map is a texture")
+        _map_options(self)
 
 
 @dataclass
@@ -366,11 +371,21 @@ class BumpMap:
     bsdf: object
     texture: Bitmap
     scale: float = 1.0
+    flip_invalid_normals: bool = True  # as NormalMap's
+    use_shadowing_function: bool = True
 
     def __post_init__(self):
         if not isinstance(self.texture, (Bitmap, Checker)):
             raise ValueError("a bump map is a texture")
         self.scale = _number(self.scale, "bump map scale")
+        _map_options(self)
+
+
+def _map_options(m) -> None:
+    for name in ("flip_invalid_normals", "use_shadowing_function"):
+        if not isinstance(getattr(m, name), (bool, np.bool_)):
+            raise ValueError(f"{name} must be true or false, got {getattr(m, name)!r}")
+        setattr(m, name, bool(getattr(m, name)))
 
 
 def _constant(v, what: str):

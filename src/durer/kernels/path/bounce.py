@@ -24,7 +24,7 @@ from .compose import bsdf_albedo, bsdf_eval, bsdf_sample
 from .emitters import emitter_pdf, pick_sample
 from .envmap import envmap_eval_pdf, has_map
 from .qmc import sobol2, uniform1
-from .textures import resolve_row, shading_frame
+from .textures import map_factor, resolve_row, shading_frame
 from .warps import power_heuristic1, to_local3, to_world3
 
 DIMS = 8  # 1-D random dimensions per bounce: 0 light pick, 1 lobe pick, 2 Russian roulette, 3 texture pick
@@ -119,7 +119,8 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
     sgn = -1.0 if P[s, FLIP] != 0 else 1.0
     n0x, n0y, n0z = hx * sgn, hy * sgn, hz * sgn
-    (nx, ny, nz), ts, tt, bent = shading_frame(P, s, TI, TD, (n0x, n0y, n0z), (gx * sgn, gy * sgn, gz * sgn), surf)
+    (nx, ny, nz), ts, tt, bent, side_n = shading_frame(P, s, TI, TD, (n0x, n0y, n0z), (gx * sgn, gy * sgn, gz * sgn),
+                                                       surf, (-dx, -dy, -dz))
     wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
     scale = 1e-7 * (1.0 + max(abs(px), abs(py), abs(pz)))
     # --- next-event estimation (light sampling's share of MIS)
@@ -128,8 +129,9 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
         ld, ldist, lw, lpdf = pick_sample(lights, env, tex, uniform1(keys[j], dim1(depth, 0)), u0, u1, px, py, pz)
         wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
         f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
-        if bent and (ld[0] * n0x + ld[1] * n0y + ld[2] * n0z) * wo[2] <= 0:  # a normal or bump map's side test
-            f0 = f1 = f2 = bpdf = 0.0
+        if bent:  # a normal or bump map's side test and shadowing (the pdf is the BSDF's, or 0 off its side)
+            k = map_factor(P, s, side_n, (nx, ny, nz), ld)
+            f0, f1, f2, bpdf = f0 * k, f1 * k, f2 * k, bpdf if k > 0 else 0.0
         mis = power_heuristic1(lpdf, bpdf)
         c0, c1, c2 = t0 * f0 * lw[0] * mis, t1 * f1 * lw[1] * mis, t2 * f2 * lw[2] * mis
         if max(c0, c1, c2) > 0 and lpdf > 0:
@@ -145,8 +147,9 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
     u0, u1 = sobol2(pkeys[j], sample[j], dim2(depth, 1))
     wl, bw, bpdf, delta, beta = bsdf_sample(P, T, s, wi, u, u0, u1)
     wx, wy, wz = to_world3(wl[0], wl[1], wl[2], ts, tt, nx, ny, nz)
-    if bent and (wx * n0x + wy * n0y + wz * n0z) * wl[2] <= 0:
-        bw = (0.0, 0.0, 0.0)
+    if bent:
+        k = map_factor(P, s, side_n, (nx, ny, nz), (wx, wy, wz))
+        bw = (bw[0] * k, bw[1] * k, bw[2] * k)
     t0, t1, t2 = t0 * bw[0], t1 * bw[1], t2 * bw[2]
     if seek:  # through a mirror or glass: the tint of the lobe taken, without the radiance scaling of refraction
         b2 = beta * beta

@@ -17,9 +17,12 @@ BECKMANN = 26  # rough BSDFs: 1 for Beckmann microfacets, 0 for GGX
 # TROW: the row of the rough plastic's transmittance table (the slot's own; a resolved scratch row keeps it); OPACITY
 # (1: opaque), a blend's WEIGHT and two child rows; TEXTURED: the row (or a blend's child) names a texture or a
 # normal or bump map; TEX_*: texture ids (-1 none) of C1, C2, AU, AV, OPACITY, WEIGHT, EMISSION, the normal map and
-# the bump map (scaled by BUMP_SCALE)
+# the bump map (scaled by BUMP_SCALE); a normal or bump map's two options (1: on): MAP_FLIP (Mitsuba's
+# flip_invalid_normals) and MAP_SHADOW (use_shadowing_function); MAP_TWOSIDED: a `twosided` around the map (seen from
+# behind, the map's frame is mirrored, textures.shading_frame; TWOSIDED is the flag of a `twosided` inside it)
 TROW, OPACITY, WEIGHT, CHILD0, CHILD1, TEXTURED = 27, 28, 29, 30, 31, 32
 TEX_C1, TEX_C2, TEX_AU, TEX_AV, TEX_OPACITY, TEX_WEIGHT, TEX_EMISSION, TEX_NORMAL, TEX_BUMP, BUMP_SCALE = range(33, 43)
+MAP_FLIP, MAP_SHADOW, MAP_TWOSIDED = 43, 44, 45
 # the principled BSDFs' constant parameters (Mitsuba's names; principledthin's specular reflection rate is named
 # specular_reflectance_sampling_rate) and their lobe sampling rates
 PRINCIPLED_PARAMS = ("anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "clearcoat",
@@ -28,5 +31,5 @@ PRINCIPLED_PARAMS = ("anisotropic", "metallic", "spec_trans", "spec_tint", "shee
                      "specular_transmittance_sampling_rate", "diffuse_transmittance_sampling_rate")
 (PR_ANISO, PR_METALLIC, PR_SPEC_TRANS, PR_SPEC_TINT, PR_SHEEN, PR_SHEEN_TINT, PR_CLEARCOAT, PR_CLEARCOAT_GLOSS,
  PR_RATE_SPEC, PR_RATE_CLEARCOAT, PR_RATE_DIFFUSE, PR_FLATNESS, PR_DIFF_TRANS, PR_RATE_SPEC_TRANS,
- PR_RATE_DIFF_TRANS) = range(43, 58)
-COLUMNS = 58
+ PR_RATE_DIFF_TRANS) = range(46, 61)
+COLUMNS = 61

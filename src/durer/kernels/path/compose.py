@@ -12,7 +12,7 @@ import numpy as np
 
 from ..common import JIT
 from .bsdf import leaf_albedo, leaf_eval, leaf_sample
-from .columns import BLEND, CHILD0, CHILD1, COLUMNS, KIND, OPACITY, TEXTURED, TWOSIDED, WEIGHT
+from .columns import BLEND, CHILD0, CHILD1, COLUMNS, KIND, MAP_TWOSIDED, OPACITY, TEXTURED, TWOSIDED, WEIGHT
 from .textures import resolve_row
 
 _leaf_eval_call = nb.njit(**JIT)(leaf_eval.py_func)  # a blend's children: called, not inlined (compile time)
@@ -129,6 +129,8 @@ def sample_kernel(P, T, tex, slot, uv, wi, u1, u2, wo, weight, pdf, delta, eta):
 def bsdf_albedo(P, s, wiz):
     """The reflectance of slot s seen from a direction of local cos(theta) wiz, as the denoiser's albedo feature
     (rendering/path.py): leaf_albedo's, a blend's mix of its two rows', times the opacity of a masked row."""
+    if P[s, MAP_TWOSIDED] != 0:
+        wiz = abs(wiz)
     if P[s, KIND] == BLEND:
         if P[s, TWOSIDED] != 0:
             wiz = abs(wiz)

@@ -31,6 +31,9 @@ from .columns import (
     COLUMNS,
     EMISSION,
     KIND,
+    MAP_FLIP,
+    MAP_SHADOW,
+    MAP_TWOSIDED,
     OPACITY,
     TEX_AU,
     TEX_AV,
@@ -220,15 +223,38 @@ def _unit(x, y, z):
 
 
 @nb.njit(**JIT)
-def shading_frame(P, s, TI, TD, n, g, surf):
+def shading_frame(P, s, TI, TD, n, g, surf, wi):
+    """_map_frame's frame and the unperturbed normal on its side, which map_factor reads: (normal, tangent s, tangent
+    t, perturbed, side). side is n, or -n where a `twosided` around the map (MAP_TWOSIDED) is seen from behind:
+    Mitsuba's twosided mirrors wi and wo about the surface before the map sees them, which is the map's frame (made
+    for the mirrored wi) mirrored, since the BSDF reads only local coordinates."""
+    nx, ny, nz = n
+    c = 2.0 * (wi[0] * nx + wi[1] * ny + wi[2] * nz)
+    if P[s, MAP_TWOSIDED] == 0 or c >= 0:
+        m, a, b, bent = _map_frame(P, s, TI, TD, n, g, surf, wi)
+        return m, a, b, bent, n
+    m, a, b, bent = _map_frame(P, s, TI, TD, n, g, surf, (wi[0] - c * nx, wi[1] - c * ny, wi[2] - c * nz))
+    return _mirror(m, n), _mirror(a, n), _mirror(b, n), bent, (-nx, -ny, -nz)
+
+
+@nb.njit(**JIT, inline="always")
+def _mirror(v, n):
+    c = 2.0 * (v[0] * n[0] + v[1] * n[1] + v[2] * n[2])
+    return v[0] - c * n[0], v[1] - c * n[1], v[2] - c * n[2]
+
+
+@nb.njit(**JIT)
+def _map_frame(P, s, TI, TD, n, g, surf, wi):
     """The BSDF frame (normal, tangent s, tangent t, perturbed) at a hit with unit shading normal n and geometric
-    normal g (both on the side the BSDF uses) and surf = (u, v, dp/du, dp/dv): the plain frame3(n), or the frame of
-    Mitsuba's normalmap or bumpmap, whose formulas (Mitsuba 3.9, measured through its eval; see
-    tests/test_kernels_path_compose.py) start from the shading frame (s0, t0, n), s0 = dp/du made orthogonal to n.
-    normalmap: normal 2 rgb - 1 in that frame, tangent s0 made orthogonal to it. bumpmap: dp/du and dp/dv tilted
-    along n by the height's gradient times the scale, normal their cross product turned to g's side, tangent
-    Mitsuba's sh_frame.to_world(dp/du) (dp/du's world components read as local ones, as Mitsuba 3.9 does) made
-    orthogonal to it. Anisotropic BSDFs without a map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
+    normal g (both on the side the BSDF uses), surf = (u, v, dp/du, dp/dv), seen from world direction wi: the plain
+    frame3(n), or the frame of Mitsuba's normalmap or bumpmap, whose formulas (Mitsuba 3.9, measured through its
+    eval; see tests/test_kernels_path_compose.py) start from the shading frame (s0, t0, n), s0 = dp/du made
+    orthogonal to n. normalmap: normal 2 rgb - 1 in that frame, tangent s0 made orthogonal to it. bumpmap: dp/du and
+    dp/dv tilted along n by the height's gradient times the scale, normal their cross product turned to g's side,
+    tangent Mitsuba's sh_frame.to_world(dp/du) (dp/du's world components read as local ones, as Mitsuba 3.9 does)
+    made orthogonal to it. With MAP_FLIP (flip_invalid_normals) a map normal m on the other side of wi than n is
+    mirrored about n first, 2 (m.n) n - m (measured: Mitsuba negates its two tangential components; wi from behind
+    flips m where wi.m > 0). Anisotropic BSDFs without a map use Mitsuba's frame of dp/du (warps.tangent_frame3)."""
     nx, ny, nz = n
     tn, tb = int(P[s, TEX_NORMAL]), int(P[s, TEX_BUMP])
     u, v, dux, duy, duz, dvx, dvy, dvz = surf
@@ -255,6 +281,10 @@ def shading_frame(P, s, TI, TD, n, g, surf):
                 mx, my, mz = -mx, -my, -mz
             dux, duy, duz = (dux * sx + duy * tx + duz * nx, dux * sy + duy * ty + duz * ny,
                              dux * sz + duy * tz + duz * nz)  # sh_frame.to_world(dp/du), as Mitsuba 3.9
+        if ok and P[s, MAP_FLIP] != 0 and (mx * wi[0] + my * wi[1] + mz * wi[2]) * (nx * wi[0] + ny * wi[1]
+                                                                                  + nz * wi[2]) < 0:
+            c = 2.0 * (mx * nx + my * ny + mz * nz)
+            mx, my, mz = c * nx - mx, c * ny - my, c * nz - mz
         if ok:
             d = mx * dux + my * duy + mz * duz
             sx, sy, sz, ok = _unit(dux - d * mx, duy - d * my, duz - d * mz)
@@ -266,3 +296,21 @@ def shading_frame(P, s, TI, TD, n, g, surf):
     else:
         ts, tt = frame3(nx, ny, nz)
     return (nx, ny, nz), ts, tt, False
+
+
+@nb.njit(**JIT)
+def map_factor(P, s, n, m, w):
+    """What a normal or bump map multiplies the BSDF's value (and a sampled weight) by for world direction w, n the
+    unperturbed and m the map's normal: 0 where w lies on different sides of the two (Mitsuba's test of both frames'
+    cos(theta)), else with MAP_SHADOW (use_shadowing_function) the shadowing term of Conty Estevez et al. 2019 that
+    Mitsuba 3.9 applies, 2 / (1 + sqrt(1 + a2 tan^2(theta_w))) with a2 = clamp(tan^2(theta_d) / 8, 0, 1), theta_d the
+    angle between m and n and theta_w w's to n (measured: eval and sample weight, not the pdf), else 1."""
+    cw = w[0] * n[0] + w[1] * n[1] + w[2] * n[2]
+    if cw * (w[0] * m[0] + w[1] * m[1] + w[2] * m[2]) <= 0:
+        return 0.0
+    if P[s, MAP_SHADOW] == 0:
+        return 1.0
+    cd = min(abs(m[0] * n[0] + m[1] * n[1] + m[2] * n[2]), 1.0)
+    a2 = min(max(0.125 * (1.0 - cd * cd) / (cd * cd), 0.0), 1.0) if cd > 0 else 1.0
+    ci = max(min(abs(cw), 1.0), 1e-6)
+    return 2.0 / (1.0 + math.sqrt(1.0 + a2 * (1.0 - ci * ci) / (ci * ci)))

@@ -6,8 +6,9 @@ the pieces: rendering/path.py calls it once per bounce with the list of live pat
 
 The numbers are those of the unfused wavefront to the bit: the same functions in the same order per path, and each
 path's light is added in the same order (its emission found, then its shadow ray's light, bounce by bounce).
-Numba's on-disk cache of trace_bounce is keyed on this file alone, as bounce.py's is on that one (its docstring
-says what to do after changing the kernels they inline; last: area lights' textured radiance)."""
+Numba's on-disk cache of trace_bounce is keyed on this file alone, as bounce.py's is on that one, not on the
+shading they inline: after a change there, delete __pycache__ or touch this file (last: area lights' textured
+radiance; the normal and bump maps' MAP_* columns and shading_frame's side normal)."""
 
 from __future__ import annotations
 
