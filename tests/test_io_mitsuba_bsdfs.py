@@ -8,7 +8,7 @@ import pytest
 
 from durer.errors import SceneError
 from durer.io.mitsuba import load_mitsuba
-from durer.kernels.path.bsdf import MAP_FLIP, MAP_SHADOW
+from durer.kernels.path.columns import MAP_FLIP, MAP_SHADOW
 from durer.rendering.bsdfs import BSDFTable
 from durer.scene.bsdfs import BumpMap, NormalMap
 

@@ -165,7 +165,7 @@ def test_normal_and_bump_maps_match_mitsuba(map_pngs, case, flip, shadow):
     each alone. durer's side (shading_frame, then the BSDF in that frame, then textures.map_factor: the test that wo
     stays on the same side of both normals and the shadowing term) is composed here as kernels/path/bounce.py
     composes it."""
-    from durer.kernels.path.bsdf import MAP_FLIP
+    from durer.kernels.path.columns import MAP_FLIP
     from durer.kernels.path.textures import map_factor, shading_frame
 
     mi = _mitsuba()
