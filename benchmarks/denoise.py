@@ -2,23 +2,25 @@
 renders at 16-1024 spp, and the denoiser's time.
 
 Scenes: the Cornell box (examples/cornell_box.xml), and the set: every scene of ../shared/scenes/mitsuba/ that durer
-loads (the others are listed with the reason) and examples/caustic.xml. Each is rendered with its longer side --res
-pixels. Error: RMSE (linear radiance, every channel) against durer's own high-sample reference (--ref-spp, other
-seeds; cached in benchmarks/out/), the mean over --seeds renders up to 128 spp (one render's error at low spp is set
-by a few firefly pixels), with the emitters' own pixels left out (every pixel where one of 1024 samples of a
-max_depth=1 render sees an emitter). Targets: denoised at 16 spp below undenoised at 128 spp on the Cornell box and
-on the median scene of the set (the ratio of the two errors, median over the set, the upper one for an even count);
-the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU time, as the machine is shared).
---picture writes the side-by-side image of the README. --noisy picks the undenoised sample counts (the set of 15
-scenes at every count and a 4096-spp reference is hours on a loaded 2-core machine).
+loads (the others are listed with the reason; the 21 of tests/test_project_mitsuba_scenes.LOADABLE). Each is
+rendered with its longer side --res pixels. Error: RMSE (linear radiance, every channel) against durer's own
+high-sample reference (--ref-spp, other seeds; cached in benchmarks/out/), the mean over --seeds renders up to 128 spp
+(one render's error at low spp is set by a few firefly pixels), with the emitters' own pixels left out (every pixel
+where one of 1024 samples of a max_depth=1 render sees an emitter). Targets: denoised at 16 spp below undenoised at
+128 spp on the Cornell box and on the median scene of the set (the ratio of the two errors, median over the set, the
+upper one for an even count); the denoiser under 10% of a 16-spp render's time at 512 x 512 (Cornell box; CPU time,
+as the machine is shared). --picture writes the side-by-side image of the README. --noisy picks the undenoised
+sample counts (the set of 21 scenes at every count and a 4096-spp reference is hours on a loaded 2-core machine).
 
     PYTHONPATH=src python benchmarks/denoise.py [--quick] [--res 128] [--ref-spp 4096] [--seeds 3] [--noisy 16 128]
-        [--quality high balanced fast] [--only TEXT ...] [--timing-only] [--timing-set] [--picture PNG]
+        [--quality high balanced fast] [--denoised 16] [--only TEXT ...] [--jsonl FILE] [--timing-only]
+        [--timing-set] [--picture PNG]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
@@ -26,7 +28,7 @@ import numpy as np
 
 import durer
 from durer.errors import SceneError
-from durer.rendering.denoise import PIXEL_FILTER, QUALITY, clean_features, denoise
+from durer.rendering.denoise import PIXEL_FILTER, QUALITY, SPLIT, clean_features, denoise, split_part
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "out"
@@ -36,12 +38,16 @@ SHARED = next((p / "shared" / "scenes" / "mitsuba" for p in (ROOT.parent, ROOT.p
 CORNELL = ROOT / "examples" / "cornell_box.xml"
 DENOISED_SPP = (4, 16, 64)
 NOISY_SPP = (16, 32, 64, 128, 256, 512, 1024)
+# the ways of keeping the directly seen emission out of OIDN's input (rendering/denoise.SPLIT), all measured on the
+# same renders: nothing kept out, surface emitters, surface emitters and the environment
+SPLITS = {"none": (), "area": ("emission",), "all": ("emission", "environment")}
+DEFAULT_SPLIT = next(k for k, v in SPLITS.items() if v == SPLIT)
 
 
 def scene_set() -> tuple[list[Path], list[str]]:
     """The set's scene files durer loads, and a line for each it does not."""
     found, skipped = [], []
-    for path in sorted(SHARED.glob("**/*.xml")) + [ROOT / "examples" / "caustic.xml"]:
+    for path in sorted(SHARED.glob("**/*.xml")):
         if {"fragments", "include"} & set(path.parts):
             continue
         try:
@@ -93,9 +99,10 @@ def rmse(a: np.ndarray, b: np.ndarray, keep: np.ndarray) -> float:
 
 
 def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualities, seeds: int) -> dict:
-    """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {spp: e}} (the same
-    render with features and denoise=True's box filter, denoised at each OIDN quality), each the mean over `seeds`
-    seeds (one above 128 spp: one run's error at low spp is set by a few firefly pixels), and OIDN's mean seconds."""
+    """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {split: {spp: e}}}
+    (the same render with features and denoise=True's box filter, denoised at each OIDN quality and each way of
+    SPLITS), each the mean over `seeds` seeds (one above 128 spp: one run's error at low spp is set by a few
+    firefly pixels), and OIDN's mean seconds (durer's split)."""
     scene = durer.load(path)
     ref = reference(path, scene, res, ref_spp)
     keep = ~emitter_pixels(path, scene, res)
@@ -103,15 +110,20 @@ def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualitie
     noisy = {n: float(np.mean([rmse(durer.render(scene, *wh, samples=n, seed=k).color, ref, keep)
                                for k in range(1, 1 + (seeds if n <= 128 else 1))])) for n in noisy_spp}
     clean = clean_features(scene.materials, path=True)
-    denoised, seconds = {q: {n: [] for n in denoised_spp} for q in qualities}, {q: [] for q in qualities}
+    denoised = {q: {w: {n: [] for n in denoised_spp} for w in SPLITS} for q in qualities}
+    seconds = {q: [] for q in qualities}
     for n in denoised_spp:
         for k in range(1, 1 + seeds):
             r = durer.render(scene, *wh, samples=n, seed=k, aovs=True, **PIXEL_FILTER)  # as denoise=True renders
             for q in qualities:
-                d = denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
-                denoised[q][n].append(rmse(d.color, ref, keep))
-                seconds[q].append(d.seconds)
-    return dict(noisy=noisy, denoised={q: {n: float(np.mean(v)) for n, v in e.items()} for q, e in denoised.items()},
+                for way, split in SPLITS.items():
+                    d = denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q,
+                                direct=split_part(r.aovs, split))
+                    denoised[q][way][n].append(rmse(d.color, ref, keep))
+                    if way == DEFAULT_SPLIT:
+                        seconds[q].append(d.seconds)
+    return dict(noisy=noisy, denoised={q: {w: {n: float(np.mean(v)) for n, v in e.items()} for w, e in ways.items()}
+                                       for q, ways in denoised.items()},
                 seconds={q: float(np.mean(v)) for q, v in seconds.items()}, clean=clean)
 
 
@@ -224,48 +236,61 @@ def main() -> None:
                     help="undenoised sample counts (default: 16 32 64 128 256 512 1024; 128 is the target's)")
     ap.add_argument("--timing-set", action="store_true",
                     help="also OIDN's CPU share of each scene's 16-spp render at 512 px (and its median over the set)")
-    ap.add_argument("--only", nargs="+", metavar="TEXT", help="only the scenes whose path contains one of these")
+    ap.add_argument("--only", nargs="+", metavar="TEXT",
+                    help="only the scenes whose path contains one of these, in this order")
+    ap.add_argument("--denoised", nargs="+", type=int, default=list(DENOISED_SPP), metavar="SPP",
+                    help="denoised sample counts (default: 4 16 64; 16 is the target's)")
+    ap.add_argument("--jsonl", type=Path, help="also append each scene's figures to this file as it is measured")
     ap.add_argument("--picture", type=Path, help="also write the README's side-by-side PNG here")
     ap.add_argument("--no-timing", action="store_true", help="skip the 512 x 512 timing")
     ap.add_argument("--timing-only", action="store_true", help="only the 512 x 512 timing (and --picture)")
     a = ap.parse_args()
     res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, tuple(sorted(set(a.noisy))), a.quality
+    denoised_spp = tuple(sorted(set(a.denoised)))
     if a.quick:
         res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in noisy_spp if n <= 256)
     if a.timing_only:
         found, skipped = [], []
     else:
         found, skipped = scene_set()
+    paths = [] if a.timing_only else [CORNELL] + found
+    if a.only:
+        paths = [p for t in a.only for p in paths if t in str(p)]
     if not a.timing_only:
         print(f"# {res} px on the longer side; reference {ref_spp} spp (durer, other seeds); RMSE without the "
-              f"emitters' own pixels, mean over {a.seeds} seeds up to 128 spp")
+              f"emitters' own pixels, mean over {a.seeds} seeds up to 128 spp; denoised with durer's split "
+              f"({DEFAULT_SPLIT}); ratios: denoised 16 spp / noisy 128 spp, emission split {' / '.join(SPLITS)}")
         for line in skipped:
             print(f"# not loaded: {line}")
-        head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in DENOISED_SPP])
-        ratio_head = " | ".join(f"{q} 16 / noisy 128" for q in qualities)
+        head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in denoised_spp])
+        ratio_head = " | ".join(f"{q} {w}" for q in qualities for w in SPLITS)
         print(f"\n| scene | {head} | {ratio_head} | OIDN s ({', '.join(qualities)}) |")
-        print("|---" * (len(noisy_spp) + len(qualities) * (len(DENOISED_SPP) + 1) + 2) + "|")
-    ratios = {q: {} for q in qualities}
-    for path in [] if a.timing_only else [CORNELL] + found:
-        if a.only and not any(t in str(path) for t in a.only):
-            continue
-        e = errors(path, res, ref_spp, noisy_spp, DENOISED_SPP, qualities, a.seeds)
-        for q in qualities:
-            ratios[q][path] = e["denoised"][q][16] / e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
+        print("|---" * (len(noisy_spp) + len(qualities) * (len(denoised_spp) + len(SPLITS)) + 2) + "|")
+    ratios = {(q, w): {} for q in qualities for w in SPLITS}
+    for path in paths:
+        e = errors(path, res, ref_spp, noisy_spp, denoised_spp, qualities, a.seeds)
+        base = e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
+        at = 16 if 16 in denoised_spp else denoised_spp[0]
+        for q, w in ratios:
+            ratios[q, w][path] = e["denoised"][q][w][at] / base
         cells = [f"{e['noisy'][n]:.4f}" for n in noisy_spp]
-        cells += [f"{e['denoised'][q][n]:.4f}" for q in qualities for n in DENOISED_SPP]
-        cells += [f"{ratios[q][path]:.2f}" for q in qualities]
+        cells += [f"{e['denoised'][q][DEFAULT_SPLIT][n]:.4f}" for q in qualities for n in denoised_spp]
+        cells += [f"{ratios[q, w][path]:.2f}" for q in qualities for w in SPLITS]
         name = path.relative_to(SHARED) if SHARED in path.parents else path.relative_to(ROOT)
         clean = "" if e["clean"] else " (features prefiltered)"
         seconds = " / ".join(f"{e['seconds'][q]:.3f}" for q in qualities)
         print(f"| {name}{clean} | {' | '.join(cells)} | {seconds} |", flush=True)
+        if a.jsonl:
+            with a.jsonl.open("a") as f:
+                f.write(json.dumps(dict(scene=str(name), res=res, ref_spp=ref_spp, seeds=a.seeds, **e)) + "\n")
     print()
-    for q in [] if a.timing_only or a.only else qualities:  # the targets need every scene
-        in_set = sorted(ratios[q][p] for p in found)
+    for q, w in [] if a.timing_only else ratios:
+        in_set = sorted(ratios[q, w][p] for p in found if p in ratios[q, w])
         median = in_set[len(in_set) // 2] if in_set else float("nan")
-        print(f"Target ({q}): denoised 16 spp below noisy 128 spp: Cornell box {ratios[q][CORNELL]:.2f} "
-              f"({'met' if ratios[q][CORNELL] < 1 else 'NOT met'}), median scene of the set ({len(in_set)} scenes) "
-              f"{median:.2f} ({'met' if median < 1 else 'NOT met'})")
+        cornell = ratios[q, w].get(CORNELL, float("nan"))
+        print(f"Target ({q}, split {w}): denoised 16 spp below noisy 128 spp: Cornell box {cornell:.2f} "
+              f"({'met' if cornell < 1 else 'NOT met'}), median scene of the set ({len(in_set)} of {len(found)} "
+              f"scenes) {median:.2f} ({'met' if median < 1 else 'NOT met'})")
     if not a.no_timing:
         t = timing(qualities)
         (pw, pc), (fw, fc) = t["plain"], t["featured"]

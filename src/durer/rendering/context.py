@@ -52,14 +52,18 @@ class RenderContext:
 class SampleResult:
     """Per-ray results: linear colour (N,3), t of the closest hit (inf on a miss), world normal (N,3); and the
     denoiser's features, None when the integrator does not produce them (options.aovs off): the first
-    non-specular hit's albedo (N,3), seen through mirrors and glass, and its shading normal (N,3). The film
-    filters every feature that is not None like the colour (units.py)."""
+    non-specular hit's albedo (N,3), seen through mirrors and glass, and its shading normal (N,3); the path
+    tracer's share of the colour that is emission seen directly or through mirrors and glass (N,3), from surface
+    emitters (emission) and from the environment (environment), which the denoiser keeps out of its input
+    (rendering/denoise.py). The film filters every feature that is not None like the colour (units.py)."""
 
     color: np.ndarray
     t: np.ndarray
     normal: np.ndarray
     albedo: np.ndarray | None = None
     shading_normal: np.ndarray | None = None
+    emission: np.ndarray | None = None
+    environment: np.ndarray | None = None
 
 
 def make_context(scene: Scene, options: RenderOptions) -> RenderContext:

@@ -7,6 +7,11 @@ rendering/whitted.py), filtered like the colour. When the features carry noise o
 Fresnel choice, a solid texture picked per sample), OIDN's recommended "prefiltering" is applied: each feature is
 denoised by its own RT filter first, and the colour filter is then told they are clean (`cleanAux`).
 
+The path tracer's colour is denoised without the emission the camera sees directly or through mirrors and glass
+(its `emission` output, kernels/path/bounce.py): OIDN takes a light's hard HDR edge for noise and blurs it into
+the surfaces around it, so that part goes around the denoiser and is added back to its output. SPLIT names the
+outputs kept out: surface emitters only; the environment seen directly stays in (benchmarks/README.md).
+
 A denoised render's samples are filtered by a one-pixel box (PIXEL_FILTER), whatever the scene asks for: a wider
 reconstruction filter spreads each sample over several pixels, and OIDN takes the correlated noise for detail (the
 roulette scene of ../shared, filtered by its tent: 0.0039-0.0050 RMSE at 16 spp, by the box: 0.0030-0.0035;
@@ -28,6 +33,7 @@ from ..scene.textures import Checkerboard, Texture
 INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]"'
 QUALITY = "high"  # OIDN's own default preset; RenderOptions.denoise_quality picks another (benchmarks/README.md)
 _QUALITY_CODES = {"high": 6, "balanced": 5, "fast": 4}  # OIDN_QUALITY_HIGH, _BALANCED, _FAST
+SPLIT = ("emission",)  # RenderResult outputs kept out of OIDN's input and added back (module docstring)
 PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of a denoised render (module docstring)
 
 
@@ -77,19 +83,33 @@ def clean_features(materials: list, path: bool) -> bool:
     return True
 
 
+def split_part(aovs: dict[str, np.ndarray], split: tuple[str, ...] = SPLIT) -> np.ndarray | None:
+    """The sum of the render outputs named in split (RenderResult.aovs), the part of the colour denoise() keeps
+    out; None when the integrator reports none of them (the ray caster, the Whitted tracer)."""
+    parts = [aovs[name] for name in split if aovs.get(name) is not None]
+    return sum(parts[1:], parts[0]) if parts else None
+
+
 def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean: bool = True,
-            quality: str = QUALITY) -> Denoised:
+            quality: str = QUALITY, direct: np.ndarray | None = None) -> Denoised:
     """OIDN's RT filter on linear HDR colour (H, W, 3) with albedo and normal features (H, W, 3). `clean` says the
-    features are noise-free (else each is prefiltered first). Raises MissingDependency without pyoidn."""
+    features are noise-free (else each is prefiltered first); `direct` (H, W, 3), a part of the colour kept out of
+    the filter's input and added back to its output (split_part). Raises MissingDependency without pyoidn."""
     oidn = require_oidn()
     start = time.perf_counter()
-    color = _image(np.maximum(np.nan_to_num(color, posinf=0.0), 0.0))  # OIDN's HDR input: finite, non-negative
+    color = np.nan_to_num(color, posinf=0.0)
+    if direct is not None:
+        direct = np.nan_to_num(direct, posinf=0.0)
+        color = color - direct
+    color = _image(np.maximum(color, 0.0))  # OIDN's HDR input: finite, non-negative
     albedo = _image(np.clip(albedo, 0.0, 1.0))
     normal = _image(np.clip(normal, -1.0, 1.0))
     if not clean:
         albedo, normal = _prefilter(oidn, albedo, normal, quality)
-    out = oidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality)
-    return Denoised(np.asarray(out, dtype=np.float32), time.perf_counter() - start)
+    out = np.asarray(oidn.denoise(color, albedo, normal, hdr=True, clean_aux=True, quality=quality), np.float32)
+    if direct is not None:
+        out = out + direct.astype(np.float32)
+    return Denoised(out, time.perf_counter() - start)
 
 
 def _image(a: np.ndarray) -> np.ndarray:

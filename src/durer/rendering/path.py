@@ -58,7 +58,7 @@ class PathTracer:
         self._bvh = ctx.accel.kernel_tree() if numba_shading else None
         self._fused = self._bvh is not None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
-        # the denoiser's features: each path's first non-specular hit's albedo and normal
+        # the denoiser's features: each path's first non-specular hit's albedo and normal, the emission it sees
         self.features = bool(o.aovs or o.denoise)
 
     def __getstate__(self) -> dict:
@@ -70,7 +70,9 @@ class PathTracer:
 
     def trace(self, origins, directions, t_min: float, pixel: np.ndarray, sample_index: np.ndarray):
         """Radiance (N,3) along camera rays of (pixel, sample index), with t and normal of the first hit, and the
-        features: albedo and normal (N,3) of the first non-specular hit (None unless options.aovs or denoise)."""
+        features: albedo and normal (N,3) of the first non-specular hit and the part of the radiance that is
+        emission seen directly or through mirrors and glass, from surface emitters and from the environment (N,3)
+        (None unless options.aovs or denoise)."""
         if self._fused:
             return self._trace_fused(origins, directions, t_min, pixel, sample_index)
         return self._trace_unfused(origins, directions, t_min, pixel, sample_index)
@@ -104,24 +106,26 @@ class PathTracer:
             depth += 1
         return L, first_t, first_n, *self._features(aux)
 
-    def _aux(self, n: int, fresh: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The features' per-path arrays (tint, albedo, normal) for n paths (kernels/path/bounce.shade_path), each
-        (n, 3), or empty when no features are wanted (the kernels never touch them). fresh: tint 1 and the rest 0;
-        else views of this thread's buffers, as _state's (their values are start_paths' to set, and trace's caller
-        copies the features out before the thread traces again)."""
+    def _aux(self, n: int, fresh: bool = True) -> tuple[np.ndarray, ...]:
+        """The features' per-path arrays (tint, albedo, normal (n, 3), seen emission (n, 6)) for n paths
+        (kernels/path/bounce.shade_path), or empty when no features are wanted (the kernels never touch them).
+        fresh: tint 1 and the rest 0; else views of this thread's buffers, as _state's (their values are
+        start_paths' to set, and trace's caller copies the features out before the thread traces again)."""
         if not self.features:
-            return np.ones((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+            return np.ones((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 6))
         if fresh:
-            return np.ones((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+            return np.ones((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 6))
         buffers = getattr(self._local, "aux", None)
         if buffers is None or len(buffers[0]) < n:
             size = max(n, BATCH)
-            buffers = self._local.aux = (np.empty((size, 3)), np.empty((size, 3)), np.empty((size, 3)))
+            buffers = self._local.aux = (np.empty((size, 3)), np.empty((size, 3)), np.empty((size, 3)),
+                                         np.empty((size, 6)))
         return tuple(b[:n] for b in buffers)
 
-    def _features(self, aux: tuple) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """(albedo, normal) of trace's result: aux's, or (None, None) when no features are wanted."""
-        return (aux[1], aux[2]) if self.features else (None, None)
+    def _features(self, aux: tuple) -> tuple[np.ndarray | None, ...]:
+        """(albedo, normal, emission seen from surface emitters, from the environment) of trace's result: aux's,
+        or four None when no features are wanted."""
+        return (aux[1], aux[2], aux[3][:, :3], aux[3][:, 3:]) if self.features else (None,) * 4
 
     def _state(self, n: int) -> tuple[np.ndarray, ...]:
         """The fused wavefront's per-path state for n paths (o, d, thr, eta, prev, keys, pixel keys, alive), as
@@ -292,6 +296,7 @@ def path_trace(ctx: RenderContext, origins: np.ndarray, directions: np.ndarray, 
     if tracer is None:  # a context not prepared for the path tracer (explain, tests): build it once here
         prepare_path(ctx)
         tracer = ctx.prepared["path"]
-    color, t, normal, albedo, shading = tracer.trace(origins, directions, t_min, np.asarray(pixel),
-                                                     np.asarray(sample))
-    return SampleResult(color, t, normal, albedo=albedo, shading_normal=shading)
+    color, t, normal, albedo, shading, emission, environment = tracer.trace(origins, directions, t_min,
+                                                                            np.asarray(pixel), np.asarray(sample))
+    return SampleResult(color, t, normal, albedo=albedo, shading_normal=shading, emission=emission,
+                        environment=environment)

@@ -65,12 +65,14 @@ def resolve(scene: Scene, width: int | None = None, height: int | None = None, o
 
 
 def denoise_result(result: RenderResult, materials: Sequence, options: RenderOptions) -> RenderResult:
-    """Replace result.color by OIDN's denoised colour (with the albedo and normal features); in place.
-    `materials`: the scene's (a compiled bundle's), which say whether the features are clean."""
-    from .denoise import clean_features, denoise
+    """Replace result.color by OIDN's denoised colour (with the albedo and normal features; the directly seen
+    emission kept out of it, denoise.split_part); in place. `materials`: the scene's (a compiled bundle's), which
+    say whether the features are clean."""
+    from .denoise import clean_features, denoise, split_part
 
     done = denoise(result.color, result.albedo, result.shading_normals,
-                   clean=clean_features(materials, options.integrator == "path"), quality=options.denoise_quality)
+                   clean=clean_features(materials, options.integrator == "path"), quality=options.denoise_quality,
+                   direct=split_part(result.aovs))
     result.color, result.denoise_seconds = done.color, done.seconds
     return result
 

@@ -21,7 +21,9 @@ class RenderResult:
     pixel, depth and normals are those of the sample nearest the pixel's centre.
     With options.aovs or options.denoise, the denoiser's features, filtered like the colour: albedo (H,W,3), the
     reflectance of each sample's first non-specular hit (seen through mirrors and glass, tinted by them; 0 where
-    the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering); else None. With
+    the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering); from the path
+    tracer also emission and environment (H,W,3), the part of the colour that is light seen directly or through
+    mirrors and glass, from surface emitters and from the environment (the denoiser's split); else None. With
     options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds); the samples are
     then filtered by a one-pixel box whatever the scene's filter (rendering/denoise.PIXEL_FILTER).
     """
@@ -57,6 +59,17 @@ class RenderResult:
     def albedo(self) -> np.ndarray | None:
         """The filtered albedo (H,W,3), when the integrator reports one (else None)."""
         return self.aovs.get("albedo")
+
+    @property
+    def emission(self) -> np.ndarray | None:
+        """The filtered emission of surface emitters seen directly or through mirrors and glass (H,W,3), a part of
+        the colour, when the integrator reports it (the path tracer with the features; else None)."""
+        return self.aovs.get("emission")
+
+    @property
+    def environment(self) -> np.ndarray | None:
+        """As emission, the environment's (H,W,3)."""
+        return self.aovs.get("environment")
 
     def __repr__(self) -> str:
         h, w = self.depth.shape

@@ -57,8 +57,11 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
     that escaped (with an environment map, an emitter's radiance and pdf are the map's, looked up here); j the path's
     row in L, sample, keys, pkeys; thr = (t0, t1, t2), eta and prev = (pdf, delta, x, y, z) its state. Adds found
     light to L[j]; with scalars[4] (features wanted) records the first non-specular hit's albedo and normal in aux =
-    (tint, albedo, normal) (n, 3) rows j (_features_at). Returns (shadow ray: valid, origin, direction, t_max,
-    contribution, and next ray: throughput (0: the path ended), origin, direction, prev, eta), each as scalars."""
+    (tint, albedo, normal, seen) rows j (_features_at), and in seen (n, 6) the emission the camera ray sees directly
+    or through mirrors and glass (the light this function adds to L[j] while the features are sought): columns
+    0-2 from surface emitters, 3-5 from the environment (the denoiser's split, rendering/denoise.py). Returns
+    (shadow ray: valid, origin, direction, t_max, contribution, and next ray: throughput (0: the path ended), origin,
+    direction, prev, eta), each as scalars."""
     P, T, tex = bsdf
     TI, TD = tex
     gx, gy, gz, hx, hy, hz = normals
@@ -101,6 +104,8 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
                 L[j, 0] += t0 * le0 * w
                 L[j, 1] += t1 * le1 * w
                 L[j, 2] += t2 * le2 * w
+                if seek:
+                    _seen(aux[3], j, 0, t0 * le0 * w, t1 * le1 * w, t2 * le2 * w)
     elif emit:
         le0, le1, le2, pdf_l = miss[0], miss[1], miss[2], miss[3]
         if miss[4] and has_map(env):
@@ -113,6 +118,8 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
         L[j, 0] += t0 * le0 * w
         L[j, 1] += t1 * le1 * w
         L[j, 2] += t2 * le2 * w
+        if seek:
+            _seen(aux[3], j, 3, t0 * le0 * w, t1 * le1 * w, t2 * le2 * w)
     if seek:
         seek = _features_at(P, hit, s, hx, hy, hz, dx, dy, dz, j, aux) and not last
     if not hit or last or s < 0:
@@ -172,6 +179,14 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
 
 
 @nb.njit(**JIT, inline="always")
+def _seen(seen, j, c, r, g, b):
+    """Add (r, g, b) to the directly seen emission of path j, columns c..c+2 (shade_path)."""
+    seen[j, c] += r
+    seen[j, c + 1] += g
+    seen[j, c + 2] += b
+
+
+@nb.njit(**JIT, inline="always")
 def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
     """The denoiser's features of path j at this hit: on an emitter seen from its emitting side, its radiance's
     colour (scaled to a maximum of 1: the denoiser then sees the light's edge, which a light with the ceiling's BSDF
@@ -179,7 +194,7 @@ def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
     geometric normal, written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does where the path
     escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass), whose sampled lobe
     multiplies the tint in shade_path."""
-    tint, albedo, normal = aux
+    tint, albedo, normal, _ = aux
     if hit and s >= 0:
         sgn = -1.0 if P[s, FLIP] != 0 else 1.0
         wiz = -(dx * gx + dy * gy + dz * gz) * sgn

@@ -122,16 +122,16 @@ def start_paths(seed_key, pixel, sample, pixel_sample, origins, directions, stat
     NumPy of the unfused wavefront makes it (the same bits): state = (o, unit d, throughput 1, eta 1, prev = (1, 1,
     origin)); streams = (keys, pixel keys): rendering/sampling.key of (seed, pixel, sample) and of (seed, pixel,
     pixel_sample), seed_key = the seed's mix; out = (L = 0, first t = inf, first normal = 0); aux = the features'
-    (tint = 1, albedo = 0, normal = 0), or empty arrays when no features are wanted."""
+    (tint = 1, albedo = 0, normal = 0, seen emission (n, 6) = 0), or empty arrays when no features are wanted."""
     o, d, thr, eta, prev = state
     keys, pkeys = streams
     L, first_t, first_n = out
-    tint, albedo, normal = aux
+    tint, albedo, normal, seen = aux
     if tint.shape[0]:
         for i in range(pixel.shape[0]):
             for c in range(3):
                 tint[i, c] = 1.0
-                albedo[i, c] = normal[i, c] = 0.0
+                albedo[i, c] = normal[i, c] = seen[i, c] = seen[i, c + 3] = 0.0
     pk = np.uint64(pixel_sample) * _SAMPLE_MIX
     for i in range(pixel.shape[0]):
         k = mix64(np.uint64(pixel[i]) + seed_key)
