@@ -66,6 +66,7 @@ def cluster(local):
 @pytest.fixture(scope="module")
 def client(cluster):
     with distributed.Client(cluster) as c:
+        c.wait_for_workers(2, timeout=120)  # under load the second worker process may still be starting
         yield c
 
 
@@ -204,6 +205,9 @@ def test_the_job_goes_to_each_worker_once(scenes, client):
 
     _, kw = CASES["path"]
     job = durer_dask.prepare_job(scenes["path"], W, H, tile=4, **kw)
+    # both workers up (a worker killed by an earlier test restarts; under load that takes seconds): the broadcast
+    # reaches the workers the scheduler knows
+    client.wait_for_workers(2, timeout=120)
     probe = _Probe(client)
     durer_dask.run_job(job, client=client, bar=probe)
     assert probe.specs and len(probe.specs) > 1

@@ -73,7 +73,7 @@ def test_every_python_snippet_is_self_contained():
         assert not _undefined_names(code), code
 
 
-@pytest.mark.parametrize("flag", sorted(set(re.findall(r"--[a-z][a-z-]+", README)) - {"--hypothesis-profile"}))
+@pytest.mark.parametrize("flag", sorted(set(re.findall(r"--[a-z][a-z-]+", README)) - {"--hypothesis-profile", "--dist"}))  # pytest options
 def test_every_flag_the_readme_names_exists(flag):
     from durer.cli import COMMANDS
 
