@@ -140,3 +140,33 @@ def test_position_and_uv_match_mitsubas_aov_integrator(tmp_path: Path):
     footprint = 2 * np.tan(np.radians(25)) * 4 / 32
     np.testing.assert_allclose(r.position[interior], ref_p[interior], atol=0.2 * footprint)
     np.testing.assert_allclose(r.uv[interior], ref_uv[interior], atol=0.01)
+
+
+def test_cli_writes_position_and_uv(tmp_path: Path, capsys):
+    """`durer render --aov position,uv`: layers position.X/Y/Z and uv.U/V of an EXR, or files beside a PNG
+    (raw in .npy); a Mitsuba aov integrator asks for them by itself; an unknown name is a usage error (exit 2)."""
+    exr = pytest.importorskip("OpenEXR")
+    from durer.cli import main
+
+    path = tmp_path / "aov.xml"
+    path.write_text(MITSUBA_XML.replace('value="32"', 'value="8"').replace('value="64"', 'value="4"'))
+    r = durer.render(durer.load(path))
+    assert main(["render", str(path), "-q", "-o", str(tmp_path / "img.exr")]) == 0  # the scene's own aovs
+    with exr.File(str(tmp_path / "img.exr"), separate_channels=True) as f:
+        ch = {k: np.asarray(v.pixels) for k, v in f.channels().items()}
+    assert set(ch) == {"R", "G", "B", "position.X", "position.Y", "position.Z", "uv.U", "uv.V"}
+    np.testing.assert_array_equal(np.stack([ch[f"position.{c}"] for c in "XYZ"], axis=-1), r.position)
+    np.testing.assert_array_equal(np.stack([ch[f"uv.{c}"] for c in "UV"], axis=-1), r.uv)
+    assert main(["render", str(path), "-q", "-o", str(tmp_path / "img.npy"), "--aov", "uv,depth"]) == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "img.uv.npy"), r.uv)
+    assert not (tmp_path / "img.position.npy").exists()
+    assert main(["render", str(path), "-q", "-o", str(tmp_path / "img.png"), "--aov", "position,uv"]) == 0
+    from PIL import Image
+
+    uv = np.asarray(Image.open(tmp_path / "img.uv.png"))
+    np.testing.assert_array_equal(uv[..., 2], 0)
+    assert np.abs(uv[..., :2] / 255.0 - np.clip(r.uv, 0, 1)).max() <= 1 / 255 + 1e-6  # red u, green v, linear
+    assert np.asarray(Image.open(tmp_path / "img.position.png")).shape == (8, 8, 3)
+    capsys.readouterr()
+    assert main(["render", str(path), "-q", "-o", str(tmp_path / "x.png"), "--aov", "position,bogus"]) == 2
+    assert "--aov: unknown output bogus" in capsys.readouterr().err.strip().splitlines()[-1]

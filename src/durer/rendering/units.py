@@ -11,7 +11,8 @@ A unit traces the film samples `samples` (a range of sample indices) of its tile
 around it* (the pixels within the filter's support radius), in batches of the integrator's size, and gathers
 them through the reconstruction filter into the tile's per-pixel sums: filter-weighted colour (and every other
 per-sample output of the integrator, e.g. albedo), the weights, and the depth and normal of the sample nearest
-each pixel's centre (with options.hit_aovs also its first hit's position and UV: hit_aovs.py). Memory is O(tile x samples of a pass + batch), never O(image x samples).
+each pixel's centre (with options.hit_aovs also its first hit's position and UV: hit_aovs.py). Memory is
+O(tile x samples of a pass + batch), never O(image x samples).
 
 Why the halo is traced rather than splatted across tiles: a pixel's sums then come from one unit, added in one
 fixed order (neighbour pixels row-major, then their samples in order: film.reconstruct's order), so the image is
