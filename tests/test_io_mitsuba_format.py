@@ -140,6 +140,9 @@ def test_wrapper_integrators_and_direct(tmp_path):
     s = load_mitsuba(str(scene(tmp_path, '<integrator type="aov"><string name="aovs" value="dd.y:depth"/>'
                                          '<integrator type="direct"/></integrator>')))
     assert s.render_defaults["max_depth"] == 2
+    s = load_mitsuba(str(scene(tmp_path, '<integrator type="aov"><string name="aovs" value="p:position, u:uv,"/>'
+                                         '<integrator type="path"/></integrator>')))  # Mitsuba skips empty items
+    assert s.render_defaults["aov_outputs"] == ("position", "uv") and s.render_defaults["hit_aovs"]
     with pytest.raises(SceneError, match="exactly one nested integrator"):
         load_mitsuba(str(scene(tmp_path, '<integrator type="aov"><string name="aovs" value="d:depth"/>'
                                          '</integrator>')))

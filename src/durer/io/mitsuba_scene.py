@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 
 import numpy as np
 
@@ -399,12 +400,12 @@ def _number_or_none(text: str) -> float | None:
 
 
 def _aov_types(node, aovs: str) -> list[str]:
-    """The types of an aov integrator's `aovs` list ("name:type, ..." as Mitsuba's): a SceneError at the
-    integrator's line for an entry that is not name:type, a type Mitsuba does not know, or one durer does not
-    compute."""
+    """The types of an aov integrator's `aovs` list ("name:type, ..." split at commas and spaces, empty items
+    skipped, as Mitsuba's): a SceneError at the integrator's line for an entry that is not name:type (Mitsuba
+    warns), a type Mitsuba does not know, or one durer does not compute."""
     kinds = []
-    for item in aovs.split(","):
-        name, colon, kind = (part.strip() for part in item.partition(":"))
+    for item in (i for i in re.split(r"[,\s]+", aovs) if i):
+        name, colon, kind = item.partition(":")
         if not colon or not name or not kind:
             raise node.error(f"aov: {item.strip()!r} is not a name:type pair (aovs=\"{aovs}\")")
         if kind in AOV_NOT_COMPUTED:
