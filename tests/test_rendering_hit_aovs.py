@@ -1,5 +1,6 @@
 """Position and UV outputs (rendering/hit_aovs.py, Mitsuba's aov `position` and `uv`): closed forms on a plane and
-a sphere seen from a known camera, every integrator; Mitsuba's own aov integrator on the same scene."""
+a sphere seen from a known camera, every integrator; Mitsuba's surface interaction at the same points on every
+analytic shape and mesh; Mitsuba's own aov integrator on the same scene; the command line's files."""
 
 from __future__ import annotations
 
