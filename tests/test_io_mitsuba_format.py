@@ -140,9 +140,19 @@ def test_wrapper_integrators_and_direct(tmp_path):
     s = load_mitsuba(str(scene(tmp_path, '<integrator type="aov"><string name="aovs" value="dd.y:depth"/>'
                                          '<integrator type="direct"/></integrator>')))
     assert s.render_defaults["max_depth"] == 2
+    s = load_mitsuba(str(scene(tmp_path, '<integrator type="aov"><string name="aovs" value="p:position, u:uv,"/>'
+                                         '<integrator type="path"/></integrator>')))  # Mitsuba skips empty items
+    assert s.render_defaults["aov_outputs"] == ("position", "uv") and s.render_defaults["hit_aovs"]
     with pytest.raises(SceneError, match="exactly one nested integrator"):
         load_mitsuba(str(scene(tmp_path, '<integrator type="aov"><string name="aovs" value="d:depth"/>'
                                          '</integrator>')))
+    for aovs, message in (("p:bogus", "unknown AOV type 'bogus'"), ("position", "not a name:type pair"),
+                          ("d:depth, i:prim_index", "does not compute the 'prim_index' output")):
+        with pytest.raises(SceneError, match=message) as e:
+            load_mitsuba(str(scene(tmp_path, f'<integrator type="aov"><string name="aovs" value="{aovs}"/>'
+                                             '<integrator type="path"/></integrator>')))
+        err = e.value  # one FILE:LINE: line, at the aov integrator
+        assert err.line is not None and str(err).startswith(f"{err.path}:{err.line}: ") and "\n" not in str(err)
     with pytest.raises(SceneError, match="emitter_samples >= 1"):
         load_mitsuba(str(scene(tmp_path, '<integrator type="direct"><integer name="bsdf_samples" value="0"/>'
                                          '</integrator>')))

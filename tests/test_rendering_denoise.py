@@ -163,10 +163,10 @@ def test_mitsuba_aov_integrator_maps_onto_the_outputs(tmp_path):
     assert (tmp_path / "img.albedo.pfm").is_file() and (tmp_path / "img.depth.pfm").is_file()
     r = durer.render(scene)
     np.testing.assert_allclose(r.albedo[3, 4], (0.2, 0.4, 0.6), rtol=1e-6)  # the sphere's centre
-    # outputs durer does not compute (position, uv: real scenes ask for them) leave the others and the image as
-    # they are, so such a scene still loads
+    # position and uv (real scenes ask for them) are the centre sample's (rendering/hit_aovs.py)
     (tmp_path / "position.xml").write_text(AOV_XML.replace("a:albedo", "p:position"))
-    assert durer.load(tmp_path / "position.xml").render_defaults["aov_outputs"] == ("depth", "normals")
+    defaults = durer.load(tmp_path / "position.xml").render_defaults
+    assert defaults["aov_outputs"] == ("depth", "normals", "position") and defaults["hit_aovs"]
 
 
 def test_denoise_is_refused_without_pyoidn(monkeypatch, tmp_path, capsys, cornell):

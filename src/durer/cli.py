@@ -231,8 +231,8 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--linear", action="store_true",
                    help="write 8-bit colour without the sRGB curve, truncated as the course does")
     p.add_argument("--aov", metavar="LIST",
-                   help="also write albedo, normals and/or depth (comma-separated): layers of the image when OUT is "
-                        ".exr, else files beside it (out.albedo.png, ...)")
+                   help="also write albedo, normals, depth, position and/or uv (comma-separated): layers of the "
+                        "image when OUT is .exr, else files beside it (out.albedo.png, ...)")
     p.add_argument("--denoise", action="store_true",
                    help='denoise the colour with Intel Open Image Denoise (needs pip install "durer[denoise]")')
     p.add_argument("--denoise-quality", choices=DENOISE_QUALITIES, default="high",
@@ -269,10 +269,12 @@ def _run_render(a: argparse.Namespace) -> int:
     if not aovs and options.aov_outputs:  # a Mitsuba `aov` integrator's outputs, unless --aov names others
         aovs = options.aov_outputs
         _check_outputs(aov_files(a.output, aovs))
+    options.hit_aovs = options.hit_aovs or "position" in aovs or "uv" in aovs
     size = scene_size(a, scene)
     start = time.perf_counter()
     result = render(scene, size[0], size[1], options=options, quiet=a.quiet)
-    layers = {"albedo": result.albedo, "normals": result.normals, "depth": result.depth}
+    layers = {"albedo": result.albedo, "normals": result.normals, "depth": result.depth, "position": result.position,
+              "uv": result.uv}
     save_with_aovs(a.output, result.color, {n: layers[n] for n in aovs}, course=a.linear)
     if depth:
         result.save_depth(depth[2], depth[0], depth[1])

@@ -53,6 +53,7 @@ class RenderOptions:
     denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs, box filter)
     denoise_quality: str = "high"  # high | balanced | fast: OIDN's preset (time against error: benchmarks/README.md)
     aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
+    hit_aovs: bool = False        # also produce position and uv of each pixel's first hit (RenderResult.position, .uv)
     # the film (Mitsuba's hdrfilm): render only the window (x, y, width, height) of the image, in pixels from its
     # top-left corner (crop_offset_x/y, crop_width/height), and an alpha channel: the filter-weighted share of
     # samples whose camera ray hit something (pixel_format rgba)

@@ -1,10 +1,13 @@
-"""Render outputs beside the image (`durer render --aov albedo,normals,depth`, issue 24): one multi-layer OpenEXR
-file when the image is `.exr`, else one file per output named after the image (`out.png` -> `out.albedo.png`).
+"""Render outputs beside the image (`durer render --aov albedo,normals,depth,position,uv`, issue 24): one
+multi-layer OpenEXR file when the image is `.exr`, else one file per output named after the image (`out.png` ->
+`out.albedo.png`).
 
 Layers in the EXR: the colour as R, G, B; albedo as albedo.R/G/B; normals as normals.X/Y/Z; depth as depth.Z
-(inf where the ray escaped), all float32. Separate 8-bit files show albedo as a colour (sRGB-encoded), normals as
-|n| per channel and depth as grey over the hit range (near white), as `--normals` and `--depth` write them;
-`.npy`, `.pfm` and `.exr` files keep the raw values.
+(inf where the ray escaped); position as position.X/Y/Z (world space) and uv as uv.U/V (0 where the ray escaped),
+all float32. Separate 8-bit files show albedo as a colour (sRGB-encoded), normals as |n| per channel and depth as
+grey over the hit range (near white), as `--normals` and `--depth` write them, position with each axis scaled
+over the image's range (its minimum black, its maximum full), and uv as red = u and green = v (clamped to
+[0, 1], linear); `.npy`, `.pfm`, `.hdr` and `.exr` files keep the raw values (uv as (u, v, 0) except in .npy).
 """
 
 from __future__ import annotations
@@ -16,8 +19,8 @@ import numpy as np
 from ..errors import UsageError
 from .images import RAW, check_extension, depth_visualization, normal_visualization, save_image, write_exr_channels
 
-AOVS = ("albedo", "normals", "depth")
-CHANNELS = {"albedo": "RGB", "normals": "XYZ", "depth": "Z"}
+AOVS = ("albedo", "normals", "depth", "position", "uv")
+CHANNELS = {"albedo": "RGB", "normals": "XYZ", "depth": "Z", "position": "XYZ", "uv": "UV"}
 
 
 def parse_aovs(text: str) -> tuple[str, ...]:
@@ -53,9 +56,17 @@ def save_with_aovs(image: str, color: np.ndarray, layers: dict[str, np.ndarray],
 
 
 def save_aov(path: str, name: str, values: np.ndarray) -> None:
-    """One output in its own file: raw for .npy/.pfm/.exr, else visualised (module docstring)."""
-    if check_extension(path) in RAW:
+    """One output in its own file: raw for .npy/.pfm/.hdr/.exr, else visualised (module docstring)."""
+    ext = check_extension(path)
+    if name == "uv" and ext != ".npy":  # image formats hold one or three channels
+        values = np.concatenate([values, np.zeros(values.shape[:2] + (1,), values.dtype)], axis=-1)
+    if ext in RAW:
         save_image(path, values)
+    elif name == "uv":
+        save_image(path, np.clip(values, 0.0, 1.0), course=True)
+    elif name == "position":
+        lo, hi = values.min(axis=(0, 1)), values.max(axis=(0, 1))
+        save_image(path, (values - lo) / np.where(hi > lo, hi - lo, 1.0), course=True)
     elif name == "albedo":
         save_image(path, values)
     elif name == "normals":

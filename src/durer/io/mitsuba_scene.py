@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 
 import numpy as np
 
@@ -24,7 +25,10 @@ SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler
 OUT_OF_SCOPE = ("volpath", "volpathmis", "prbvolpath")  # participating media: not in durer
 
 # Mitsuba's aov types durer computes, and the output each becomes (`durer render` writes them: io/layers.py)
-AOV_TYPES = {"albedo": "albedo", "sh_normal": "normals", "geo_normal": "normals", "depth": "depth"}
+AOV_TYPES = {"albedo": "albedo", "sh_normal": "normals", "geo_normal": "normals", "depth": "depth",
+             "position": "position", "uv": "uv"}
+# Mitsuba's other aov types, which durer does not compute (a scene asking for them is refused, naming them)
+AOV_NOT_COMPUTED = ("dp_du", "dp_dv", "duv_dx", "duv_dy", "prim_index", "shape_index")
 
 
 class Builder:
@@ -119,11 +123,11 @@ class Builder:
         if t in ("moment", "aov"):  # wrappers: the RGB image is the nested integrator's
             aovs = p.get("aovs", None, str)
             p.done()
-            if t == "aov" and aovs:  # the extra outputs durer computes (AOV_TYPES); others (position, uv) are not
-                kinds = [item.strip().partition(":")[2] for item in aovs.split(",")]
-                outputs = tuple(dict.fromkeys(AOV_TYPES[k] for k in kinds if k in AOV_TYPES))
+            if t == "aov" and aovs:  # the extra outputs durer computes (AOV_TYPES)
+                outputs = tuple(dict.fromkeys(AOV_TYPES[k] for k in _aov_types(node, aovs)))
                 self.defaults["aov_outputs"] = outputs
                 self.defaults["aovs"] = "albedo" in outputs
+                self.defaults["hit_aovs"] = "position" in outputs or "uv" in outputs
             nested = [c for c in node.children if c.tag in ("integrator", "ref")]
             if len(nested) != 1 or len(node.children) != 1:
                 raise node.error(f"integrator '{t}': durer renders the RGB image of exactly one nested "
@@ -393,3 +397,22 @@ def _number_or_none(text: str) -> float | None:
         return float(text)
     except ValueError:
         return None
+
+
+def _aov_types(node, aovs: str) -> list[str]:
+    """The types of an aov integrator's `aovs` list ("name:type, ..." split at commas and spaces, empty items
+    skipped, as Mitsuba's): a SceneError at the integrator's line for an entry that is not name:type (Mitsuba
+    warns), a type Mitsuba does not know, or one durer does not compute."""
+    kinds = []
+    for item in (i for i in re.split(r"[,\s]+", aovs) if i):
+        name, colon, kind = item.partition(":")
+        if not colon or not name or not kind:
+            raise node.error(f"aov: {item.strip()!r} is not a name:type pair (aovs=\"{aovs}\")")
+        if kind in AOV_NOT_COMPUTED:
+            raise node.error(f"aov: durer does not compute the '{kind}' output (it computes "
+                             f"{', '.join(AOV_TYPES)})")
+        if kind not in AOV_TYPES:
+            raise node.error(f"aov: unknown AOV type '{kind}' (Mitsuba's are {', '.join(AOV_TYPES)}, "
+                             f"{', '.join(AOV_NOT_COMPUTED)})")
+        kinds.append(kind)
+    return kinds

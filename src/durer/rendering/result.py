@@ -19,6 +19,9 @@ class RenderResult:
     color: float32 (H,W,3) linear radiance; depth: float32 (H,W) ray parameter t of the closest hit (inf on a miss);
     normals: float32 (H,W,3) unit world-space normals of the closest hit (0 on a miss). With several samples per
     pixel, depth and normals are those of the sample nearest the pixel's centre.
+    With options.hit_aovs, that same sample's first hit as Mitsuba's aov integrator's `position` and `uv`:
+    position float32 (H,W,3) world-space point and uv float32 (H,W,2) surface UV (rendering/hit_aovs.py), 0 on a
+    miss; else None. Unlike Mitsuba's aov, which filters them with the film's filter, they are not filtered.
     With options.aovs or options.denoise, the denoiser's features, filtered like the colour: albedo (H,W,3), the
     reflectance of each sample's first non-specular hit (seen through mirrors and glass, tinted by them; 0 where
     the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering); from the path
@@ -37,6 +40,8 @@ class RenderResult:
     # filtered with the colour's weights into a float32 (H,W,k) image
     aovs: dict[str, np.ndarray] = field(default_factory=dict)
     denoise_seconds: float = 0.0
+    position: np.ndarray | None = None
+    uv: np.ndarray | None = None
 
     @property
     def alpha(self) -> np.ndarray | None:

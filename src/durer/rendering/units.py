@@ -11,7 +11,8 @@ A unit traces the film samples `samples` (a range of sample indices) of its tile
 around it* (the pixels within the filter's support radius), in batches of the integrator's size, and gathers
 them through the reconstruction filter into the tile's per-pixel sums: filter-weighted colour (and every other
 per-sample output of the integrator, e.g. albedo), the weights, and the depth and normal of the sample nearest
-each pixel's centre. Memory is O(tile x samples of a pass + batch), never O(image x samples).
+each pixel's centre (with options.hit_aovs also its first hit's position and UV: hit_aovs.py). Memory is
+O(tile x samples of a pass + batch), never O(image x samples).
 
 Why the halo is traced rather than splatted across tiles: a pixel's sums then come from one unit, added in one
 fixed order (neighbour pixels row-major, then their samples in order: film.reconstruct's order), so the image is
@@ -46,6 +47,8 @@ from ..scene.cameras import image_camera
 from ..scene.graph import Scene
 from . import film
 from .context import RenderContext, SampleResult, make_context
+from .hit_aovs import WIDTH as HIT_WIDTH
+from .hit_aovs import hit_points
 from .integrators import Integrator, integrator_for
 from .result import RenderResult
 
@@ -181,7 +184,9 @@ def prepare(scene: Scene, width: int, height: int, options: RenderOptions) -> Jo
 class Accumulators:
     """Per-pixel sums of a tile, arrays (rows, cols, ...): `sums` holds the filter-weighted sums of every
     channel (colour first, then each AOV named in `channels`), `weight` the filter weights' sum; `depth` and
-    `normal` are those of the sample nearest the pixel centre, `centre` its squared distance (inf: none yet)."""
+    `normal` are those of the sample nearest the pixel centre, `centre` its squared distance (inf: none yet), and
+    `surface` its first hit's position and UV (rows, cols, hit_aovs.WIDTH) with options.hit_aovs, else
+    (rows, cols, 0)."""
 
     tile: Tile
     channels: tuple[tuple[str, int], ...]
@@ -190,13 +195,15 @@ class Accumulators:
     depth: np.ndarray
     normal: np.ndarray
     centre: np.ndarray
+    surface: np.ndarray
 
     @classmethod
-    def zeros(cls, tile: Tile, channels: tuple[tuple[str, int], ...] = (("color", 3),)) -> Accumulators:
+    def zeros(cls, tile: Tile, channels: tuple[tuple[str, int], ...] = (("color", 3),),
+              surface: int = 0) -> Accumulators:
         shape = (tile.rows, tile.cols)
         width = sum(k for _, k in channels)
         return cls(tile, channels, np.zeros(shape + (width,)), np.zeros(shape), np.full(shape, np.inf),
-                   np.zeros(shape + (3,)), np.full(shape, np.inf))
+                   np.zeros(shape + (3,)), np.full(shape, np.inf), np.zeros(shape + (surface,)))
 
     @classmethod
     def empty(cls, job: Job) -> Accumulators:
@@ -230,6 +237,10 @@ class Accumulators:
         nearer = other.centre < self.centre[at]
         np.copyto(self.depth[at], other.depth, where=nearer)
         np.copyto(self.normal[at], other.normal, where=nearer[..., None])
+        if other.surface.shape[-1] > self.surface.shape[-1]:  # the first unit with positions and UVs
+            self.surface = np.zeros(self.weight.shape + other.surface.shape[-1:])
+        if other.surface.shape[-1]:
+            np.copyto(self.surface[at], other.surface, where=nearer[..., None])
         np.copyto(self.centre[at], other.centre, where=nearer)
         return self
 
@@ -311,16 +322,20 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     if options.alpha:
         aovs["alpha"][:, 0] = np.isfinite(t)
     channels = (("color", 3),) + tuple((name, a.shape[1]) for name, a in aovs.items())
-    acc = Accumulators.zeros(tile, channels)
+    acc = Accumulators.zeros(tile, channels, HIT_WIDTH if options.hit_aovs else 0)
     values = np.concatenate([color, *aovs.values()], axis=1) if aovs else color
     sums, weight = acc.sums.reshape(tile.pixels, -1), acc.weight.reshape(-1)
     film.gather(points, values, m, halo.rect, tile.rect, width, height, options, sums, weight)
-    _nearest(points, t, normal, m, halo, tile, height, acc)
+    centre = _nearest(points, t, normal, m, halo, tile, height, acc)
+    if options.hit_aovs:
+        acc.surface[:] = hit_points(job.ctx, origins[centre], directions[centre], job.camera.t_min,
+                                    t[centre]).reshape(acc.surface.shape)
     return acc
 
 
-def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc: Accumulators) -> None:
-    """Depth and normal of each tile pixel's sample nearest its centre (the first such sample on a tie)."""
+def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc: Accumulators) -> np.ndarray:
+    """Depth and normal of each tile pixel's sample nearest its centre (the first such sample on a tie); returns
+    those samples' indices into the unit's rays (tile pixels row-major)."""
     rows, cols = tile.inside(halo)
     pts = points.reshape(halo.rows, halo.cols, m, 2)[rows, cols]  # the tile's own samples, (rows, cols, m, 2)
     cx = np.arange(tile.col, tile.col + tile.cols) + 0.5
@@ -328,18 +343,21 @@ def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc
     d2 = (pts[..., 0] - cx[None, :, None]) ** 2 + (pts[..., 1] - cy[:, None, None]) ** 2
     own_t = t.reshape(halo.rows, halo.cols, m)[rows, cols]
     own_n = normal.reshape(halo.rows, halo.cols, m, 3)[rows, cols]
+    first = np.arange(halo.pixels).reshape(halo.rows, halo.cols)[rows, cols] * m  # each pixel's first sample
     if m == 1:
         acc.depth[:], acc.normal[:], acc.centre[:] = own_t[..., 0], own_n[..., 0, :], d2[..., 0]
-        return
+        return first.reshape(-1)
     best = np.argmin(d2, axis=-1)[..., None]
     acc.depth[:] = np.take_along_axis(own_t, best, axis=-1)[..., 0]
     acc.normal[:] = np.take_along_axis(own_n, best[..., None], axis=-2)[..., 0, :]
     acc.centre[:] = np.take_along_axis(d2, best, axis=-1)[..., 0]
+    return (first + best[..., 0]).reshape(-1)
 
 
 def finish(job: Job, acc: Accumulators) -> RenderResult:
     """The image of the whole image's sums: each channel's weighted sum over the weights (black where no sample
-    weighs), depth and normals of the centre samples, all float32 (H,W,...)."""
+    weighs), depth and normals of the centre samples (and their position and UV with options.hit_aovs), all
+    float32 (H,W,...)."""
     if acc.tile != job.tile:
         raise ValueError(f"finish needs the sums of the whole image {job.tile}, got {acc.tile}")
     if not acc.channels:
@@ -352,9 +370,11 @@ def finish(job: Job, acc: Accumulators) -> RenderResult:
         for name, k in acc.channels[1:]:
             aovs[name] = pixels[..., lo:lo + k].astype(np.float32)
             lo += k
+        surface = acc.surface.astype(np.float32) if acc.surface.shape[-1] else None
         return RenderResult(color=pixels[..., :3].astype(np.float32), depth=acc.depth.astype(np.float32),
                             normals=acc.normal.astype(np.float32), stats=getattr(job.ctx.accel, "stats", None),
-                            aovs=aovs)
+                            aovs=aovs, position=None if surface is None else surface[..., :3],
+                            uv=None if surface is None else surface[..., 3:])
 
 
 def run(job: Job, units: list[tuple[Tile, range]] | None = None, bar=None) -> Accumulators:
