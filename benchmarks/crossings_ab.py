@@ -4,13 +4,14 @@ filling pass of kernels/bvh/queries.crossings_two_level, then a global lexsort b
 incoherent rays; the answers are checked equal first. Also Shape.mesh's NumPy normals and bounds against
 build.mesh_normals_bounds on the 1.1M bunny.
 
-    PYTHONPATH=src python benchmarks/crossings_ab.py [--repeat 5]
+    PYTHONPATH=src python benchmarks/crossings_ab.py [--repeat 5] [--meshes ../shared/meshes]
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 from raycases import SHARED, camera_rays, load_mesh, random_rays
@@ -55,8 +56,10 @@ def interleaved(a, b, repeat: int) -> tuple[float, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=5)
-    repeat = ap.parse_args().repeat
-    mesh = load_mesh(SHARED / "meshes", "bun_zipper.ply")
+    ap.add_argument("--meshes", type=Path, default=SHARED / "meshes", help="folder with the bunny PLY files")
+    args = ap.parse_args()
+    repeat = args.repeat
+    mesh = load_mesh(args.meshes, "bun_zipper.ply")
     scene = RaycastingScene()
     scene.add_triangles(np.asarray(mesh.vertices, np.float32), np.asarray(mesh.faces, np.uint32))
     for label, (o, d) in (("camera 1024^2", camera_rays(mesh, 1024)), ("incoherent 1M", random_rays(mesh, 1 << 20))):
@@ -68,7 +71,7 @@ def main() -> None:
         old, new = interleaved(lambda batch=batch: old_list(scene, batch), lambda r=r: scene.list_intersections(r),
                                repeat)
         print(f"list {label}: old {old:.3f} s, one pass {new:.3f} s, new/old {new / old:.2f}, same answers {same}")
-    big = load_mesh(SHARED / "meshes", "bun_zipper_subdiv2.ply")
+    big = load_mesh(args.meshes, "bun_zipper_subdiv2.ply")
     tris = np.asarray(big.vertices, np.float64)[np.asarray(big.faces)]
 
     def numpy_prep():
