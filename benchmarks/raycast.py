@@ -35,6 +35,7 @@ from pathlib import Path
 import numba
 import numpy as np
 import trimesh
+from open3d_rows import open3d_rows
 from raycases import SHARED, camera_rays, load_mesh, median_time, random_rays
 
 from durer import RaycastingScene
@@ -372,6 +373,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--engines", default=",".join(ENGINES), help="comma-separated engines to run if installed")
     ap.add_argument("--no-scaling", action="store_true")
     ap.add_argument("--no-startup", action="store_true")
+    ap.add_argument("--open3d-only", action="store_true",
+                    help="only Open3D's rows: count_intersections, list_intersections, build (open3d_rows.py)")
     args = ap.parse_args(argv)
     res = args.res or (256 if args.quick else 1024)
     engines = [e for e in args.engines.split(",") if e]
@@ -386,6 +389,9 @@ def main(argv: list[str] | None = None) -> None:
           f"{os.getloadavg()[0]:.2f}, Python {platform.python_version()}, numba {numba.__version__}; "
           f"{args.threads} threads; median of {args.repeat} interleaved rounds")
     print("Meshes: Stanford bunny (Stanford Computer Graphics Laboratory).")
+    if args.open3d_only:
+        open3d_rows(bunny, big, res, args.repeat, args.threads, camera_rays, random_rays)
+        return
     o, d = camera_rays(bunny, res)
     ro, rd = random_rays(bunny, res * res)
     results = {}
@@ -400,6 +406,7 @@ def main(argv: list[str] | None = None) -> None:
         for c, r in bench_mesh("1.1M bunny", big, cases, engines, args.threads, args.repeat).items():
             results[f"1.1M bunny, {c}"] = r
     summary(results)
+    open3d_rows(bunny, big, res, args.repeat, args.threads, camera_rays, random_rays)
     if not (args.quick or args.no_scaling):
         scaling(bunny, big, min(res, 512), 3)
     if not (args.quick or args.no_startup):

@@ -177,3 +177,26 @@ def test_cast_rays_allocates_its_outputs_and_little_else(scenes):
         tracemalloc.stop()
     outputs = len(rays) * (4 + 4 + 4 + 8 + 12)
     assert outputs <= peak < outputs * 1.02 + 2_500_000
+
+
+def test_lists_longer_than_the_work_items_buffers_come_whole_and_sorted_by_t():
+    """list_intersections' one pass (queries.hit_lists_two_level) starts each work item with room for 4 hits a
+    ray (at least 256): rays through 600 stacked squares overflow it, are walked again in grown buffers, and list
+    every crossing in t order, the counts equal count_intersections', beside rays with one hit."""
+    planes = 600
+    z = np.arange(planes, dtype=np.float64)[::-1]  # added far to near, so the walk's order is not t order
+    quad = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], np.float64)
+    v = np.concatenate([np.column_stack([quad, np.full(4, zi)]) for zi in z])
+    f = np.concatenate([np.array([[0, 1, 2], [0, 2, 3]]) + 4 * k for k in range(planes)])
+    scene = RaycastingScene()
+    scene.add_triangles(v, f)
+    rays = np.array([[0.1, 0.2, -1.0, 0, 0, 1], [0.3, -0.4, -1.0, 0, 0, 1], [0.1, 0.2, planes - 1.5, 0, 0, 1],
+                     [5.0, 5.0, -1.0, 0, 0, 1]])
+    out = scene.list_intersections(rays)
+    counts = np.diff(out["ray_splits"].astype(np.int64))
+    assert counts.tolist() == [planes, planes, 1, 0]
+    assert np.array_equal(counts, scene.count_intersections(rays))
+    assert np.array_equal(out["ray_ids"], np.repeat(np.arange(4), counts))
+    for i, start in enumerate((1.0, 1.0, 0.5)):
+        t = out["t_hit"][out["ray_splits"][i]:out["ray_splits"][i + 1]]
+        assert np.allclose(t, start + np.arange(counts[i]), rtol=0, atol=1e-12)

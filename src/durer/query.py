@@ -283,19 +283,20 @@ class RaycastingScene:
         with threads(nthreads):
             counts, out = batches.crossings(self._tree(), batch, fill=True)
         index = np.uint32 if int(counts.sum()) < INVALID_ID and n < INVALID_ID else np.int64
-        ray_ids = np.repeat(np.arange(n, dtype=index), counts)
-        order = np.lexsort((out["t"], ray_ids))
+        ray_ids = np.repeat(np.arange(n, dtype=index), counts)  # the hits come ray by ray, sorted by t
         prim = np.where(out["kind"] == SPHERE, 0, out["prim"]).astype(np.int32)
         splits = np.zeros(n + 1, index)
         np.cumsum(counts, out=splits[1:])
         ft = batch.out_dtype
+        uv = np.empty((len(ray_ids), 2), ft)
+        uv[:, 0], uv[:, 1] = out["u"], out["v"]
         return results({
             "ray_splits": splits,
-            "ray_ids": ray_ids[order],
-            "t_hit": out["t"][order].astype(ft),
-            "geometry_ids": ids(out["inst"][order]),
-            "primitive_ids": ids(prim[order]),
-            "primitive_uvs": np.stack([out["u"], out["v"]], axis=-1)[order].astype(ft),
+            "ray_ids": ray_ids,
+            "t_hit": out["t"].astype(ft),
+            "geometry_ids": ids(out["inst"]),
+            "primitive_ids": ids(prim),
+            "primitive_uvs": uv,
         })
 
     @property

@@ -17,10 +17,11 @@ from ..kernels.bvh.queries import (
     closest_one_level,
     closest_two_level,
     crossings_two_level,
+    hit_lists_two_level,
     occluded_one_level,
     occluded_two_level,
 )
-from ..kernels.threads import run_pieces
+from ..kernels.threads import map_pieces, run_pieces
 from .bvh import INVALID_ID, TwoLevelBVH
 
 _NO_MAP = np.zeros(0, np.int32)
@@ -53,6 +54,12 @@ class RayBatch:
 
     def band(self) -> int:
         return band_size(self.width)
+
+    def collect(self, kernel, *args) -> list:
+        """kernel(origins, directions, t_min, t_max, *args, first, k0, k1) over the bands as run does, returning
+        each work item's result in ray order."""
+        first = np.empty((n_bands(len(self), self.band()), 3), np.int64)
+        return map_pieces(kernel, len(first), self.origins, self.directions, self.t_min, self.t_max, *args, first)
 
     def run(self, kernel, *args) -> tuple[int, int, int]:
         """kernel(origins, directions, t_min, t_max, *args, first, k0, k1) over the batch's bands on every
@@ -115,25 +122,20 @@ def occluded(tree: TwoLevelBVH, rays: RayBatch) -> np.ndarray:
 
 def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
     """Every hit of every ray (the two-level kernels): counts (N,) int64, and with fill the hits as flat arrays
-    t, inst, kind, prim, u, v (ray by ray, unsorted within a ray), as TwoLevelBVH.all_hits."""
+    t, inst, kind, prim, u, v, ray by ray and sorted by t within a ray (a stable sort: equal t in the walk's
+    order). Counting alone stores no hits; the lists are made in one pass (queries.hit_lists_two_level)."""
     n = len(rays)
     counts = np.zeros(n, np.int64)
     f, i32, i8 = np.zeros(0), np.zeros(0, np.int32), np.zeros(0, np.int8)
-    empty = dict(t=f, inst=i32, kind=i8, prim=i32, u=f, v=f)
+    names = ("t", "inst", "kind", "prim", "u", "v")
     if not tree.instances:
-        return counts, (empty if fill else None)
+        return counts, (dict(zip(names, (f, i32, i8, i32, f, f), strict=True)) if fill else None)
     args = (tree.packed.args, rays.band())
-    rays.run(crossings_two_level, *args, np.zeros(n, np.int64), f, i32, i8, i32, f, f, counts)
     if not fill:
+        rays.run(crossings_two_level, *args, np.zeros(n, np.int64), f, i32, i8, i32, f, f, counts)
         return counts, None
-    offsets = np.zeros(n, np.int64)
-    np.cumsum(counts[:-1], out=offsets[1:])
-    total = int(counts.sum())
-    out = dict(t=np.empty(total), inst=np.empty(total, np.int32), kind=np.empty(total, np.int8),
-               prim=np.empty(total, np.int32), u=np.empty(total), v=np.empty(total))
-    if total:
-        rays.run(crossings_two_level, *args, offsets, out["t"], out["inst"], out["kind"], out["prim"], out["u"],
-                 out["v"], counts)
+    parts = rays.collect(hit_lists_two_level, *args, counts)
+    out = {k: np.concatenate([p[1 + j] for p in parts]) for j, k in enumerate(names)}
     return counts, out
 
 

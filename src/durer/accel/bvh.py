@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..kernels.bvh.build import build_wide_bvh, item_boxes, leaf_items
+from ..kernels.bvh.build import build_wide_bvh, item_boxes, leaf_items, mesh_normals_bounds
 from ..kernels.bvh.instance_packets import any_hit_instances, closest_hit_instances
 from ..kernels.bvh.instances import rays_to_object
 from ..kernels.bvh.layout import MAX_LEAF, leaf_codes, leaf_slots, stack_size_for
@@ -99,15 +99,13 @@ class Shape:
     @classmethod
     def mesh(cls, triangles: np.ndarray) -> Shape:
         """A mesh from its triangles (F, 3, 3), object space."""
-        tris = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-        normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-        length = np.linalg.norm(normals, axis=1, keepdims=True)
-        np.divide(normals, length, out=normals, where=length > 0)
+        tris = np.ascontiguousarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+        normals, lo, hi = mesh_normals_bounds(tris)
         start = time.perf_counter()
         tree = build_tree(tris, np.zeros((0, 3)), np.zeros((0, 3)))
         seconds = time.perf_counter() - start
-        lo = tris.min(axis=(0, 1)) if len(tris) else np.zeros(3)
-        hi = tris.max(axis=(0, 1)) if len(tris) else np.zeros(3)
+        if not len(tris):
+            lo, hi = np.zeros(3), np.zeros(3)
         return cls(tree, normals, np.zeros((0, 3)), np.zeros(0), lo, hi, seconds)
 
     @classmethod

@@ -37,12 +37,16 @@ def run_pieces(kernel, total: int, *args, threads: int | None = None) -> None:
     (the kernels are nogil): a few pieces per thread from a shared pool, so an unlucky slow piece does not idle
     the other thread. (Numba's parallel=True regions measured fragile on a loaded machine: their OpenMP threads
     wait for each other at the region's end, and one descheduled thread stalls the whole call.)"""
+    map_pieces(kernel, total, *args, threads=threads)
+
+
+def map_pieces(kernel, total: int, *args, threads: int | None = None) -> list:
+    """run_pieces, returning each piece's result in the order of its work items (for kernels whose pieces
+    produce outputs of sizes known only once they have run)."""
     threads = min(threads or nb.get_num_threads(), total)
     if threads <= 1:
-        kernel(*args, 0, total)
-        return
+        return [kernel(*args, 0, total)]
     pool = thread_pool(threads)
     pieces = min(total, 8 * threads)
     edges = [total * k // pieces for k in range(pieces + 1)]
-    for f in [pool.submit(kernel, *args, edges[k], edges[k + 1]) for k in range(pieces)]:
-        f.result()
+    return [f.result() for f in [pool.submit(kernel, *args, edges[k], edges[k + 1]) for k in range(pieces)]]

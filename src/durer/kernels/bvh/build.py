@@ -43,6 +43,31 @@ def item_boxes(tris, sphere_lo, sphere_hi):
 
 
 @nb.njit(**JIT)
+def mesh_normals_bounds(tris):
+    """Unit normals (F, 3) of triangles (F, 3, 3) (zero for a degenerate one) and the mesh's bounds lo, hi (3,),
+    in one pass: NumPy's cross product, norm and two reductions over the (F, 3, 3) array took 0.5 s of the 1.1M
+    bunny's 2 s build. The arithmetic is NumPy's (a1 b2 - a2 b1; sqrt((x x + y y) + z z)), so the same bits."""
+    f = tris.shape[0]
+    normals = np.zeros((f, 3))
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for i in range(f):
+        ax, ay, az = tris[i, 1, 0] - tris[i, 0, 0], tris[i, 1, 1] - tris[i, 0, 1], tris[i, 1, 2] - tris[i, 0, 2]
+        bx, by, bz = tris[i, 2, 0] - tris[i, 0, 0], tris[i, 2, 1] - tris[i, 0, 1], tris[i, 2, 2] - tris[i, 0, 2]
+        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        length = np.sqrt((nx * nx + ny * ny) + nz * nz)
+        if length > 0.0:
+            nx, ny, nz = nx / length, ny / length, nz / length
+        normals[i, 0], normals[i, 1], normals[i, 2] = nx, ny, nz
+        for c in range(3):
+            for a in range(3):
+                x = tris[i, c, a]
+                lo[a] = min(lo[a], x)
+                hi[a] = max(hi[a], x)
+    return normals, lo, hi
+
+
+@nb.njit(**JIT)
 def leaf_items(tris, order):
     """leaf_prim (triangle id, or -(sphere + 1)) and leaf_tri (the triangle's 9 coordinates, zeros for a
     sphere) in leaf order."""

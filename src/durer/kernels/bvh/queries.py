@@ -16,8 +16,9 @@ import numpy as np
 from ..common import JIT, MISS, SPHERE, TRIANGLE
 from .bands import band_scratch, load_band, ray_at
 from .instance_packets import any_hit_instances, closest_hit_instances
-from .instances import all_hits_instances, hit_normal
+from .instances import all_hits_instances, hit_normal, next_instance, ray_slabs, to_object, top_walk
 from .layout import BLOCK, PACKET
+from .single import blas_all, load_ray
 from .trace import any_hit_bvh, closest_hit_bvh
 
 
@@ -145,3 +146,75 @@ def crossings_two_level(origins, directions, t_min, t_max, tree, band, offsets, 
         if clean:
             all_hits_instances(o[:m], d[:m], lo[:m], hi[:m], *tree, offsets[r0:r0 + m], out_t, out_inst, out_kind,
                                out_prim, out_u, out_v, counts[r0:r0 + m], 0, n_blocks_of(m))
+
+
+@nb.njit(**JIT, inline="always")
+def _sort_by_t(t, inst, kind, prim, u, v, a, b):
+    """Hits a..b of one ray sorted by t in place (insertion sort, stable: equal t keep the walk's order, as a
+    stable sort of the whole list by (ray, t) would); a ray has a few hits, so this beats one global lexsort."""
+    for i in range(a + 1, b):
+        ti, ni, ki, pi, ui, vi = t[i], inst[i], kind[i], prim[i], u[i], v[i]
+        j = i - 1
+        while j >= a and t[j] > ti:
+            t[j + 1], inst[j + 1], kind[j + 1], prim[j + 1], u[j + 1], v[j + 1] = t[j], inst[j], kind[j], prim[j], \
+                u[j], v[j]
+            j -= 1
+        t[j + 1], inst[j + 1], kind[j + 1], prim[j + 1], u[j + 1], v[j + 1] = ti, ni, ki, pi, ui, vi
+
+
+@nb.njit(**JIT)
+def _grown(a, used, cap):
+    out = np.empty(cap, a.dtype)
+    out[:used] = a[:used]
+    return out
+
+
+@nb.njit(**JIT)
+def hit_lists_two_level(origins, directions, t_min, t_max, tree, band, counts, first, k0, k1):
+    """list_intersections in one pass (the two-level walk of instances.all_hits_instances; tree as in
+    closest_two_level): bands k0..k1 write counts[i] and return their hits, ray by ray in ray order and sorted by
+    t within a ray, as (number, t, inst, kind, prim, u, v) arrays of their own, grown by doubling (a ray that
+    overflows them is walked again). Replaces a counting pass, a filling pass and a global lexsort."""
+    (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
+     sph_radius, sph_w2o, stack_size) = tree
+    n = origins.shape[0]
+    cap = max(256, 4 * (min(n, k1 * band) - k0 * band))
+    bt, bi, bk = np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int8)
+    bp, bu, bv = np.empty(cap, np.int32), np.empty(cap), np.empty(cap)
+    used = 0
+    top_node = np.empty(stack_size, np.int32)
+    stack_node = np.empty(stack_size, np.int32)
+    o, d, lo, hi = band_scratch(band)
+    for k in range(k0, k1):
+        r0, m, clean = _world_band(origins, directions, t_min, t_max, tree, k, band, o, d, lo, hi, first)
+        if not clean:
+            continue
+        for j in range(m):
+            ox, oy, oz, dx, dy, dz = load_ray(o, d, j)
+            slabs = ray_slabs(ox, oy, oz, dx, dy, dz)
+            while True:
+                room = cap - used
+                ot, ok_, op, ou, ov = bt[used:], bk[used:], bp[used:], bu[used:], bv[used:]
+                total = 0
+                walk = top_walk(top_node)
+                while True:
+                    q, walk = next_instance(top_bounds, top_child, top_leaf, top_node, walk, slabs, ox, oy, oz,
+                                            lo[j], hi[j])
+                    if q < 0:
+                        break
+                    px, py, pz, qx, qy, qz = to_object(inst_w2o[q], ox, oy, oz, dx, dy, dz)
+                    before = total
+                    total = blas_all(bounds, child, inst_root[q], leaf_prim, leaf_tri, sph_center, sph_radius,
+                                     sph_w2o, px, py, pz, qx, qy, qz, lo[j], hi[j], stack_node, ot, op, ok_, ou, ov,
+                                     total)
+                    for h in range(before, min(total, room)):
+                        bi[used + h] = q
+                if total <= room:
+                    break
+                cap = max(2 * cap, used + 2 * total)
+                bt, bi, bk = _grown(bt, used, cap), _grown(bi, used, cap), _grown(bk, used, cap)
+                bp, bu, bv = _grown(bp, used, cap), _grown(bu, used, cap), _grown(bv, used, cap)
+            _sort_by_t(bt, bi, bk, bp, bu, bv, used, used + total)
+            counts[r0 + j] = total
+            used += total
+    return used, bt[:used], bi[:used], bk[:used], bp[:used], bu[:used], bv[:used]
