@@ -6,8 +6,8 @@ base colour with sheen, specular tint and anisotropy (the anisotropic ones orien
 Mitsuba does), and a thin sheet passing light diffusely and glossily; two more give number parameters as
 checkerboards (metallic and clearcoat; a thin sheet's diff_trans and spec_trans), where the image's mean alone
 would not notice the texture read as its mean: their 6x6-pixel blocks are within 1.5x the difference between two
-Mitsuba renders of different seeds (measured: 1.08x and 1.24x; the textures' means instead: 1.74x and 2.99x). Slow: the path tracer's kernels and
-Mitsuba's render."""
+Mitsuba renders of different seeds (measured: 1.08x and 1.24x; the textures' means instead: 1.74x and 2.99x).
+Slow: the path tracer's kernels and Mitsuba's render."""
 
 from __future__ import annotations
 
