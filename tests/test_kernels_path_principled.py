@@ -1,7 +1,7 @@
 """Mitsuba's principled and principledthin BSDFs in durer's kernels (kernels/path/principled.py, principledthin.py):
 eval, pdf and sample against Mitsuba 3's own values in scalar_rgb from both sides, for constant and textured
-parameters (bitmaps and checkerboards on every parameter Mitsuba takes as a texture, at random UVs); sampling against the pdf (chi-square) and the sampled weights' mean against the
-integral of eval (unbiased)."""
+parameters (bitmaps and checkerboards on every parameter Mitsuba takes as a texture, at random UVs); sampling
+against the pdf (chi-square) and the sampled weights' mean against the integral of eval (unbiased)."""
 
 from __future__ import annotations
 
