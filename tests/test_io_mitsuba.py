@@ -14,7 +14,7 @@ from PIL import Image
 import durer
 from durer.errors import SceneError
 from durer.scene.bsdfs import Dielectric, Principled, PrincipledThin, Surface
-from durer.scene.textures import Bitmap
+from durer.scene.textures import Bitmap, Checker
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CAM = ('<sensor type="perspective"><float name="fov" value="40"/>'
@@ -68,6 +68,27 @@ def test_principled_reads_mitsubas_parameters(tmp_path):
     assert b.specular_transmittance_sampling_rate == 0.5 and b.diffuse_transmittance_sampling_rate == 1.0
 
 
+def test_principled_reads_textures_on_every_parameter_mitsuba_textures(tmp_path):
+    """A texture (nested or referenced) on metallic, clearcoat, ... and principledthin's eta loads as that texture;
+    Mitsuba's number-only parameters are refused above (ERRORS)."""
+    Image.fromarray(np.full((2, 2), 200, np.uint8), mode="L").save(tmp_path / "m.png")
+    p = write(tmp_path, '<texture type="checkerboard" id="chk"><float name="color0" value="0.1"/></texture>'
+                        '<shape type="sphere"><bsdf type="principled">'
+                        '<texture type="bitmap" name="metallic"><string name="filename" value="m.png"/></texture>'
+                        '<ref name="clearcoat" id="chk"/><float name="sheen" value="0.3"/></bsdf></shape>')
+    b = durer.load(p).materials[0].bsdf
+    assert isinstance(b.metallic, Bitmap) and isinstance(b.clearcoat, Checker) and b.sheen == 0.3
+    np.testing.assert_allclose(b.metallic.image, (200 / 255) ** 2.2, rtol=0.05)  # sRGB-decoded, not raw
+    np.testing.assert_allclose(b.clearcoat.color0, 0.1)
+    q = write(tmp_path, '<shape type="rectangle"><bsdf type="principledthin">'
+                        '<texture type="checkerboard" name="eta"><float name="color1" value="1.6"/></texture>'
+                        '<texture type="checkerboard" name="diff_trans"/><float name="flatness" value="0.2"/>'
+                        '</bsdf></shape>')
+    b = durer.load(q).materials[0].bsdf
+    assert isinstance(b.eta, Checker) and isinstance(b.diff_trans, Checker) and b.flatness == 0.2
+    np.testing.assert_allclose(b.eta.color1, 1.6)
+
+
 def test_load_dict_matches_the_xml():
     """The dict of mi.cornell_box()'s structure (plain arrays for transforms) gives the XML's scene."""
     xml = durer.load(EXAMPLES / "cornell_box.xml")
@@ -98,14 +119,17 @@ ERRORS = [
     ("<shape type=\"sphere\">", 4, "malformed XML"),
     ("<shape type=\"bunny\"/>", 3, "unsupported shape 'bunny'"),
     ("<bsdf type=\"null\" id=\"x\"/>", 3, "unsupported bsdf 'null'"),
-    ("<bsdf type=\"principledthin\" id=\"x\">\n<texture type=\"checkerboard\" name=\"eta\"/></bsdf>", 4,
-     "durer cannot texture principledthin's eta (give a number)"),
+    ("<bsdf type=\"principledthin\" id=\"x\">\n<texture type=\"checkerboard\" "
+     "name=\"diffuse_transmittance_sampling_rate\"/></bsdf>", 4,
+     "principledthin's diffuse_transmittance_sampling_rate is a number, not a texture (as in Mitsuba)"),
     ("<bsdf type=\"principledthin\" id=\"x\">\n<float name=\"diff_trans\" value=\"2.5\"/></bsdf>", 3,
      "principledthin diff_trans must be in [0, 2], got 2.5"),
     ("<bsdf type=\"principledthin\" id=\"x\">\n<float name=\"metallic\" value=\"0.5\"/></bsdf>", 4,
      "unsupported parameter 'metallic' of bsdf 'principledthin'"),
-    ("<bsdf type=\"principled\" id=\"x\">\n<texture type=\"checkerboard\" name=\"metallic\"/></bsdf>", 4,
-     "durer cannot texture principled's metallic (give a number)"),
+    ("<bsdf type=\"principled\" id=\"x\">\n<texture type=\"checkerboard\" name=\"eta\"/></bsdf>", 4,
+     "principled's eta is a number, not a texture (as in Mitsuba)"),
+    ("<bsdf type=\"principled\" id=\"x\">\n<texture type=\"checkerboard\" name=\"specular\"/></bsdf>", 4,
+     "principled's specular is a number, not a texture (as in Mitsuba)"),
     ("<bsdf type=\"principled\" id=\"x\"><float name=\"eta\" value=\"1.4\"/>\n"
      "<float name=\"specular\" value=\"0.3\"/></bsdf>", 4, "principled: give eta or specular, not both"),
     ("<bsdf type=\"principled\" id=\"x\">\n<float name=\"metallic\" value=\"1.5\"/></bsdf>", 3,

@@ -1,7 +1,7 @@
 """Mitsuba's principled and principledthin BSDFs in durer's kernels (kernels/path/principled.py, principledthin.py):
 eval, pdf and sample against Mitsuba 3's own values in scalar_rgb from both sides, for constant and textured
-(base_color, roughness) parameters; sampling against the pdf (chi-square) and the sampled weights' mean against the
-integral of eval (unbiased)."""
+parameters (bitmaps and checkerboards on every parameter Mitsuba takes as a texture, at random UVs); sampling
+against the pdf (chi-square) and the sampled weights' mean against the integral of eval (unbiased)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,10 @@ from PIL import Image
 from durer.io.images import read_texture
 from durer.rendering.bsdfs import BSDFTable, eval_pdf, sample
 from durer.scene import bsdfs as B
-from durer.scene.textures import Bitmap
+from durer.scene.textures import Bitmap, Checker
+
+# a checkerboard on a number parameter: Mitsuba's eval_1 reads the cell's other colour's channel mean
+CHK = ("checker", [0.1, 0.5, 0.3], [0.9, 0.6, 0.8])
 
 CASES = [
     {},
@@ -30,6 +33,10 @@ CASES = [
      "clearcoat": 0.5, "spec_trans": 0.4, "metallic": 0.2, "sheen": 0.3},
     {"eta": 1.0, "roughness": 0.25},
     {"base_color": "rgb.png", "roughness": "grey.png", "metallic": 0.3, "spec_trans": 0.3, "clearcoat": 0.4},
+    {"base_color": [0.7, 0.4, 0.2], "roughness": 0.3, "metallic": "grey.png", "spec_trans": "rgb.png",
+     "clearcoat": CHK, "clearcoat_gloss": "grey.png", "eta": 1.4},
+    {"anisotropic": "grey.png", "sheen": CHK, "sheen_tint": "rgb.png", "spec_tint": "grey.png", "metallic": 0.2,
+     "roughness": "grey.png", "base_color": "rgb.png"},
     # principledthin
     {"thin": True},
     {"thin": True, "roughness": 0.3, "base_color": [0.8, 0.3, 0.1], "spec_trans": 0.6, "diff_trans": 0.4},
@@ -39,6 +46,9 @@ CASES = [
     {"thin": True, "spec_trans": 0.5, "diff_trans": 0.5, "specular_reflectance_sampling_rate": 0.3,
      "diffuse_transmittance_sampling_rate": 2.0, "specular_transmittance_sampling_rate": 0.7},
     {"thin": True, "base_color": "rgb.png", "roughness": "grey.png", "spec_trans": 0.4, "diff_trans": 0.6},
+    {"thin": True, "spec_trans": "grey.png", "diff_trans": ("checker", 0.3, 1.4), "flatness": "rgb.png",
+     "eta": ("checker", 1.2, 1.7), "anisotropic": "grey.png", "sheen": "grey.png", "sheen_tint": CHK,
+     "spec_tint": "rgb.png", "roughness": 0.4},  # eight textured numbers: every TEX_NUMBERS pair
 ]
 
 
@@ -52,8 +62,8 @@ def pngs(tmp_path_factory):
 
 
 def _both(case: dict, d) -> tuple[dict, B.Principled | B.PrincipledThin]:
-    """Mitsuba's dict and durer's description of one case (a name ending in .png: a bitmap of that file; "thin":
-    principledthin)."""
+    """Mitsuba's dict and durer's description of one case (a name ending in .png: a bitmap of that file; ("checker",
+    color0, color1): a checkerboard; "thin": principledthin)."""
     thin = case.get("thin", False)
     md, kw = {"type": "principledthin" if thin else "principled"}, {}
     for k, v in case.items():
@@ -61,6 +71,10 @@ def _both(case: dict, d) -> tuple[dict, B.Principled | B.PrincipledThin]:
             continue
         if isinstance(v, str):
             md[k], kw[k] = {"type": "bitmap", "filename": str(d / v)}, Bitmap(read_texture(str(d / v)))
+        elif isinstance(v, tuple):
+            md[k] = {"type": "checkerboard", **{f"color{i}": {"type": "rgb", "value": v[1 + i]} if isinstance(
+                v[1 + i], list) else v[1 + i] for i in range(2)}}
+            kw[k] = Checker(v[1], v[2])
         else:
             md[k], kw[k] = ({"type": "rgb", "value": v} if isinstance(v, list) else v), v
     return md, (B.PrincipledThin if thin else B.Principled)(**kw)

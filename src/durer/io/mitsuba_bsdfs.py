@@ -13,15 +13,17 @@ from .mitsuba_tree import Props, call
 
 BSDFS = ("diffuse", "dielectric", "thindielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
          "roughplastic", "principled", "principledthin", "twosided", "blendbsdf", "mask", "normalmap", "bumpmap")
-# principled's parameters that durer reads as numbers only (base_color and roughness may be textures)
-PRINCIPLED_NUMBERS = {"anisotropic": 0.0, "metallic": 0.0, "spec_trans": 0.0, "spec_tint": 0.0, "sheen": 0.0,
-                      "sheen_tint": 0.0, "clearcoat": 0.0, "clearcoat_gloss": 0.0, "specular": 0.5,
-                      "main_specular_sampling_rate": 1.0, "clearcoat_sampling_rate": 1.0,
+# the principled BSDFs' number parameters and their defaults: those Mitsuba 3 takes as a texture (measured with
+# mi.load_dict: a checkerboard on each loads) and those it takes as a number only (principled's specular and eta, the
+# sampling rates), as durer does
+PRINCIPLED_TEXTURED = {"anisotropic": 0.0, "metallic": 0.0, "spec_trans": 0.0, "spec_tint": 0.0, "sheen": 0.0,
+                       "sheen_tint": 0.0, "clearcoat": 0.0, "clearcoat_gloss": 0.0}
+PRINCIPLED_NUMBERS = {"specular": 0.5, "main_specular_sampling_rate": 1.0, "clearcoat_sampling_rate": 1.0,
                       "diffuse_reflectance_sampling_rate": 1.0}
-THIN_NUMBERS = {"anisotropic": 0.0, "spec_trans": 0.0, "spec_tint": 0.0, "sheen": 0.0, "sheen_tint": 0.0,
-                "flatness": 0.0, "diff_trans": 0.0, "eta": 1.5, "specular_reflectance_sampling_rate": 1.0,
-                "specular_transmittance_sampling_rate": 1.0, "diffuse_reflectance_sampling_rate": 1.0,
-                "diffuse_transmittance_sampling_rate": 1.0}
+THIN_TEXTURED = {"anisotropic": 0.0, "spec_trans": 0.0, "spec_tint": 0.0, "sheen": 0.0, "sheen_tint": 0.0,
+                 "flatness": 0.0, "diff_trans": 0.0, "eta": 1.5}
+THIN_NUMBERS = {"specular_reflectance_sampling_rate": 1.0, "specular_transmittance_sampling_rate": 1.0,
+                "diffuse_reflectance_sampling_rate": 1.0, "diffuse_transmittance_sampling_rate": 1.0}
 TEXTURES = ("bitmap", "checkerboard")
 
 
@@ -160,16 +162,18 @@ def _wrapper(builder, node, p: Props, depth: int):
 
 
 def _principled(builder, node, p: Props):
-    """Mitsuba's principled and principledthin: base_color and roughness as colours / numbers or textures, the rest
-    numbers; principled's eta or specular, not both (as Mitsuba)."""
+    """Mitsuba's principled and principledthin: base_color a colour or a texture, every parameter Mitsuba takes as a
+    texture a number or a texture, the rest numbers; principled's eta or specular, not both (as Mitsuba)."""
     thin = node.type == "principledthin"
     numbers = THIN_NUMBERS if thin else {**PRINCIPLED_NUMBERS, "eta": None}
     for c in node.children:
         if c.name in numbers:
-            raise c.error(f"durer cannot texture {node.type}'s {c.name} (give a number)")
+            raise c.error(f"{node.type}'s {c.name} is a number, not a texture (as in Mitsuba)")
     if not thin and "eta" in node.props and "specular" in node.props:
         raise node.error("principled: give eta or specular, not both (as Mitsuba)", p.where("specular"))
     kw = {name: p.get(name, default, float) for name, default in numbers.items()}
+    kw.update({name: scalar(builder, node, p, name, default)
+               for name, default in (THIN_TEXTURED if thin else PRINCIPLED_TEXTURED).items()})
     return call(node, B.PrincipledThin if thin else B.Principled, colour(builder, node, p, "base_color", 0.5),
                 scalar(builder, node, p, "roughness", 0.5), **kw)
 

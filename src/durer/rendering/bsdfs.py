@@ -53,6 +53,7 @@ from ..kernels.path.columns import (
     MAP_SHADOW,
     MAP_TWOSIDED,
     NONLINEAR,
+    NUMBER_PAIRS,
     OPACITY,
     PHONG,
     PLASTIC,
@@ -66,6 +67,7 @@ from ..kernels.path.columns import (
     SMOOTH,
     SPEC_WEIGHT,
     TEX_C1,
+    TEX_NUMBERS,
     TEXTURED,
     THINDIELECTRIC,
     TROW,
@@ -134,6 +136,7 @@ class BSDFTable:
     tex: np.ndarray = field(default_factory=lambda: np.zeros((0, len(TEXTURED_PARAMS)), np.int64))  # ids or -1
     bump_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
     principled: np.ndarray = field(default_factory=lambda: np.zeros((0, len(PRINCIPLED_PARAMS))))  # PR_* columns
+    numbers: np.ndarray = field(default_factory=lambda: np.zeros((0, 2 * NUMBER_PAIRS), np.int64))  # TEX_NUMBERS
     map_flip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))    # a normal/bump map's two options
     map_shadow: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     map_twosided: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # a twosided around the map
@@ -158,6 +161,7 @@ class BSDFTable:
         t.kind = t.kind.astype(np.int8)
         t.tex = t.tex.reshape(len(rows), len(TEXTURED_PARAMS))
         t.principled = t.principled.reshape(len(rows), len(PRINCIPLED_PARAMS))
+        t.numbers = t.numbers.reshape(len(rows), 2 * NUMBER_PAIRS)
         return t
 
     def smooth(self, slot: np.ndarray) -> np.ndarray:
@@ -184,7 +188,8 @@ class BSDFTable:
             P[:, TROW] = np.arange(n)
             P[:, TEX_C1:TEX_C1 + len(TEXTURED_PARAMS)] = self.tex
             P[:, PR_ANISO:PR_ANISO + len(PRINCIPLED_PARAMS)] = self.principled
-            textured = (self.tex >= 0).any(axis=1)
+            P[:, TEX_NUMBERS:TEX_NUMBERS + 2 * NUMBER_PAIRS] = self.numbers
+            textured = (self.tex >= 0).any(axis=1) | (self.numbers[:, 1::2] >= 0).any(axis=1)
             blend = self.kind == BLEND
             textured[blend] |= textured[self.child0[blend]] | textured[self.child1[blend]]
             P[:, TEXTURED] = textured
@@ -202,8 +207,8 @@ def _row(m, textures: TextureTable) -> dict:
              alpha_u=0.1, alpha_v=0.1, exponent=1.0, spec_weight=0.0, fdr_int=0.0, nonlinear=False,
              transmittance=np.ones(ROUGH_RES), emission=np.zeros(3), flip=False, is_texture=False, beckmann=False,
              opacity=1.0, weight=0.0, child0=0, child1=0, tex=np.full(len(TEXTURED_PARAMS), -1), bump_scale=0.0,
-             principled=np.zeros(len(PRINCIPLED_PARAMS)), map_flip=False, map_shadow=False, map_twosided=False,
-             children=())
+             principled=np.zeros(len(PRINCIPLED_PARAMS)), numbers=np.full(2 * NUMBER_PAIRS, -1), map_flip=False,
+             map_shadow=False, map_twosided=False, children=())
     if isinstance(m, Surface):
         if m.radiance is not None:
             r["emission"] = m.radiance
@@ -239,9 +244,14 @@ def _row(m, textures: TextureTable) -> dict:
     elif isinstance(m, (Principled, PrincipledThin)):
         thin = isinstance(m, PrincipledThin)
         names = {"main_specular_sampling_rate": "specular_reflectance_sampling_rate"} if thin else {}
+        values = [getattr(m, names.get(n, n), 0.0) for n in PRINCIPLED_PARAMS]
+        eta = m.eta if thin else m.relative_eta
+        pairs = [(PR_ANISO + k, v) for k, v in enumerate(values) if isinstance(v, (Bitmap, Checker))]
+        pairs += [(ETA, eta)] if isinstance(eta, (Bitmap, Checker)) else []
+        for k, (col, tex) in enumerate(pairs):  # numbers read per hit (kernels/path/textures._substitute)
+            r["numbers"][2 * k:2 * k + 2] = col, textures.add(tex)
         r.update(kind=PRINCIPLEDTHIN if thin else PRINCIPLED, c1=m.base_color, alpha_u=m.roughness,
-                 eta=m.eta if thin else m.relative_eta,
-                 principled=np.array([getattr(m, names.get(n, n), 0.0) for n in PRINCIPLED_PARAMS], np.float64))
+                 eta=_mean1(eta), principled=np.array([_mean1(v) for v in values], np.float64))
     elif isinstance(m, RoughDielectric):
         r.update(kind=ROUGHDIELECTRIC, c1=m.specular_reflectance, c2=m.specular_transmittance,
                  eta=m.int_ior / m.ext_ior, alpha_u=m.alpha_u, alpha_v=m.alpha_v, beckmann=m.distribution == "beckmann")
@@ -269,6 +279,12 @@ def _row(m, textures: TextureTable) -> dict:
     else:
         r["is_texture"] = True  # a solid texture: resolved per hit into the materials it blends
     return _textures(r, textures)
+
+
+def _mean1(v) -> float:
+    """A number parameter's constant column: its value, or a texture's mean (the row holds it until the hit's UV
+    resolves the texture)."""
+    return float(v.mean) if isinstance(v, (Bitmap, Checker)) else float(v)
 
 
 def _textures(r: dict, textures: TextureTable) -> dict:

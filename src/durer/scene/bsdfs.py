@@ -218,8 +218,9 @@ class RoughPlastic(Plastic):
 class Principled:
     """Mitsuba's `principled`: the Disney principled BSDF (a diffuse base with retro-reflection and sheen, a GGX
     specular lobe towards the base colour as `metallic` grows, rough transmission by `spec_trans`, a clearcoat).
-    base_color and roughness may be textures; the rest are numbers in [0, 1]. The index is `eta`, else Mitsuba's
-    2 / (1 - sqrt(0.08 specular)) - 1 (specular 0.5: eta 1.5); the three rates weigh the lobes' sampling."""
+    base_color, roughness and the eight weights from anisotropic to clearcoat_gloss may be textures (as in Mitsuba),
+    else numbers in [0, 1]. The index is `eta`, else Mitsuba's 2 / (1 - sqrt(0.08 specular)) - 1 (specular 0.5: eta
+    1.5), and the three rates weigh the lobes' sampling: numbers, as Mitsuba takes them."""
 
     base_color: np.ndarray = 0.5
     roughness: float = 0.5
@@ -242,8 +243,7 @@ class Principled:
         self.roughness = _fraction(self.roughness, "principled roughness")
         for name in ("anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "clearcoat",
                      "clearcoat_gloss"):
-            what = f"principled {name}"
-            setattr(self, name, _unit_number(_constant(getattr(self, name), what), what))
+            setattr(self, name, _fraction(getattr(self, name), f"principled {name}"))
         self.specular = _number(self.specular, "principled specular")
         if not 0 <= self.specular < 12.5:
             raise ValueError(f"principled specular must be in [0, 12.5) (eta from it), got {self.specular!r}")
@@ -263,7 +263,8 @@ class Principled:
 class PrincipledThin:
     """Mitsuba's `principledthin`: the Disney BSDF of a thin two-sided sheet (leaves, paper, cloth): diffuse
     reflection with `flatness` towards a subsurface look, `diff_trans` passing diffusely, `spec_trans` passing as a
-    rough glossy sheet; base_color and roughness may be textures, the rest are numbers (eta a positive index)."""
+    rough glossy sheet. Every parameter but the four sampling rates may be a texture (as in Mitsuba), else a number
+    (eta a positive index)."""
 
     base_color: np.ndarray = 0.5
     roughness: float = 0.5
@@ -284,15 +285,19 @@ class PrincipledThin:
         self.base_color = _albedo(self.base_color, "principledthin base_color")
         self.roughness = _fraction(self.roughness, "principledthin roughness")
         for name in ("anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness"):
-            what = f"principledthin {name}"
-            setattr(self, name, _unit_number(_constant(getattr(self, name), what), what))
-        what = "principledthin diff_trans"  # Mitsuba's range: its diffuse transmission is diff_trans / 2
-        self.diff_trans = _number(_constant(self.diff_trans, what), what)
-        if not 0 <= self.diff_trans <= 2:
-            raise ValueError(f"{what} must be in [0, 2], got {self.diff_trans!r}")
-        self.eta = ior(_constant(self.eta, "principledthin eta"), "principledthin eta")
+            setattr(self, name, _fraction(getattr(self, name), f"principledthin {name}"))
+        self.diff_trans = _or_texture(self.diff_trans, _diff_trans, "principledthin diff_trans")
+        self.eta = _or_texture(self.eta, ior, "principledthin eta")
         _rates(self, ("specular_reflectance_sampling_rate", "specular_transmittance_sampling_rate",
                       "diffuse_reflectance_sampling_rate", "diffuse_transmittance_sampling_rate"))
+
+
+def _diff_trans(v, what: str) -> float:
+    """principledthin's diff_trans: a number in [0, 2] (Mitsuba's range: its diffuse transmission is diff_trans / 2)."""
+    x = _number(v, what)
+    if not 0 <= x <= 2:
+        raise ValueError(f"{what} must be in [0, 2], got {v!r}")
+    return x
 
 
 def _rates(bsdf, names: tuple[str, ...]) -> None:

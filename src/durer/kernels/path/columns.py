@@ -32,4 +32,8 @@ PRINCIPLED_PARAMS = ("anisotropic", "metallic", "spec_trans", "spec_tint", "shee
 (PR_ANISO, PR_METALLIC, PR_SPEC_TRANS, PR_SPEC_TINT, PR_SHEEN, PR_SHEEN_TINT, PR_CLEARCOAT, PR_CLEARCOAT_GLOSS,
  PR_RATE_SPEC, PR_RATE_CLEARCOAT, PR_RATE_DIFFUSE, PR_FLATNESS, PR_DIFF_TRANS, PR_RATE_SPEC_TRANS,
  PR_RATE_DIFF_TRANS) = range(46, 61)
-COLUMNS = 61
+# numbers read from textures (Mitsuba's eval_1) into any column, for parameters without a TEX_* column of their own (the
+# principled BSDFs' PR_* and principledthin's ETA): NUMBER_PAIRS pairs (column, texture id) from TEX_NUMBERS, the used
+# ones first, the rest (-1, -1)
+TEX_NUMBERS, NUMBER_PAIRS = 61, 8
+COLUMNS = 77

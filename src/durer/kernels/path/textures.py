@@ -34,6 +34,7 @@ from .columns import (
     MAP_FLIP,
     MAP_SHADOW,
     MAP_TWOSIDED,
+    NUMBER_PAIRS,
     OPACITY,
     TEX_AU,
     TEX_AV,
@@ -42,6 +43,7 @@ from .columns import (
     TEX_C2,
     TEX_EMISSION,
     TEX_NORMAL,
+    TEX_NUMBERS,
     TEX_OPACITY,
     TEX_WEIGHT,
     WEIGHT,
@@ -179,7 +181,8 @@ def _copy_row(P, s, Q, r):
 
 @nb.njit(**JIT)
 def _substitute(Q, r, TI, TD, u, v):
-    """Row r of Q with each textured parameter replaced by its texture's value at (u, v)."""
+    """Row r of Q with each textured parameter (a TEX_* column's, or a TEX_NUMBERS pair's) replaced by its
+    texture's value at (u, v)."""
     for col, ref in ((C1, TEX_C1), (C2, TEX_C2), (EMISSION, TEX_EMISSION)):
         t = int(Q[r, ref])
         if t >= 0:
@@ -192,6 +195,11 @@ def _substitute(Q, r, TI, TD, u, v):
         t = int(Q[r, ref])
         if t >= 0:
             Q[r, col] = min(max(tex_eval1(TI, TD, t, u, v), 0.0), 1.0)
+    for k in range(NUMBER_PAIRS):  # (column, texture) pairs, the used ones first: eval_1 unclamped, as Mitsuba's
+        t = int(Q[r, TEX_NUMBERS + 2 * k + 1])  # principled reads its weights
+        if t < 0:
+            break
+        Q[r, int(Q[r, TEX_NUMBERS + 2 * k])] = tex_eval1(TI, TD, t, u, v)
 
 
 @nb.njit(**JIT)
