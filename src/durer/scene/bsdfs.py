@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .textures import Bitmap, Checker
+from .textures import Bitmap, Checker, TextureValue
 
 # Complex indices of refraction (eta, k) of named metals as Mitsuba 3.5.3's `scalar_rgb` variant uses them: its
 # spectral data (data/ior/<name>.{eta,k}.spd) integrated to RGB, read back with mi.traverse(conductor). "none" is
@@ -215,23 +215,37 @@ class RoughPlastic(Plastic):
 
 
 @dataclass
-class Principled:
+class _Disney:
+    """The inputs Mitsuba's principled and principledthin share, with its defaults (base_color and roughness first,
+    as the reader passes them)."""
+
+    base_color: np.ndarray | TextureValue = 0.5
+    roughness: float | TextureValue = 0.5
+    anisotropic: float | TextureValue = 0.0
+    spec_trans: float | TextureValue = 0.0
+    spec_tint: float | TextureValue = 0.0
+    sheen: float | TextureValue = 0.0
+    sheen_tint: float | TextureValue = 0.0
+
+    def _check(self, kind: str, weights: tuple[str, ...]) -> None:
+        """base_color a colour, roughness and the shared and named weights in [0, 1] (each a number or a
+        texture); errors name the plugin and the parameter."""
+        self.base_color = _albedo(self.base_color, f"{kind} base_color")
+        for name in ("roughness", "anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint") + weights:
+            setattr(self, name, _fraction(getattr(self, name), f"{kind} {name}"))
+
+
+@dataclass
+class Principled(_Disney):
     """Mitsuba's `principled`: the Disney principled BSDF (a diffuse base with retro-reflection and sheen, a GGX
     specular lobe towards the base colour as `metallic` grows, rough transmission by `spec_trans`, a clearcoat).
     base_color, roughness and the eight weights from anisotropic to clearcoat_gloss may be textures (as in Mitsuba),
     else numbers in [0, 1]. The index is `eta`, else Mitsuba's 2 / (1 - sqrt(0.08 specular)) - 1 (specular 0.5: eta
     1.5), and the three rates weigh the lobes' sampling: numbers, as Mitsuba takes them."""
 
-    base_color: np.ndarray = 0.5
-    roughness: float = 0.5
-    anisotropic: float = 0.0
-    metallic: float = 0.0
-    spec_trans: float = 0.0
-    spec_tint: float = 0.0
-    sheen: float = 0.0
-    sheen_tint: float = 0.0
-    clearcoat: float = 0.0
-    clearcoat_gloss: float = 0.0
+    metallic: float | TextureValue = 0.0
+    clearcoat: float | TextureValue = 0.0
+    clearcoat_gloss: float | TextureValue = 0.0
     specular: float = 0.5
     eta: float | None = None
     main_specular_sampling_rate: float = 1.0
@@ -239,11 +253,7 @@ class Principled:
     diffuse_reflectance_sampling_rate: float = 1.0
 
     def __post_init__(self):
-        self.base_color = _albedo(self.base_color, "principled base_color")
-        self.roughness = _fraction(self.roughness, "principled roughness")
-        for name in ("anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "clearcoat",
-                     "clearcoat_gloss"):
-            setattr(self, name, _fraction(getattr(self, name), f"principled {name}"))
+        self._check("principled", ("metallic", "clearcoat", "clearcoat_gloss"))
         self.specular = _number(self.specular, "principled specular")
         if not 0 <= self.specular < 12.5:
             raise ValueError(f"principled specular must be in [0, 12.5) (eta from it), got {self.specular!r}")
@@ -260,32 +270,22 @@ class Principled:
 
 
 @dataclass
-class PrincipledThin:
+class PrincipledThin(_Disney):
     """Mitsuba's `principledthin`: the Disney BSDF of a thin two-sided sheet (leaves, paper, cloth): diffuse
     reflection with `flatness` towards a subsurface look, `diff_trans` passing diffusely, `spec_trans` passing as a
     rough glossy sheet. Every parameter but the four sampling rates may be a texture (as in Mitsuba), else a number
     (eta a positive index)."""
 
-    base_color: np.ndarray = 0.5
-    roughness: float = 0.5
-    anisotropic: float = 0.0
-    spec_trans: float = 0.0
-    spec_tint: float = 0.0
-    sheen: float = 0.0
-    sheen_tint: float = 0.0
-    flatness: float = 0.0
-    diff_trans: float = 0.0
-    eta: float = 1.5
+    flatness: float | TextureValue = 0.0
+    diff_trans: float | TextureValue = 0.0
+    eta: float | TextureValue = 1.5
     specular_reflectance_sampling_rate: float = 1.0
     specular_transmittance_sampling_rate: float = 1.0
     diffuse_reflectance_sampling_rate: float = 1.0
     diffuse_transmittance_sampling_rate: float = 1.0
 
     def __post_init__(self):
-        self.base_color = _albedo(self.base_color, "principledthin base_color")
-        self.roughness = _fraction(self.roughness, "principledthin roughness")
-        for name in ("anisotropic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness"):
-            setattr(self, name, _fraction(getattr(self, name), f"principledthin {name}"))
+        self._check("principledthin", ("flatness",))
         self.diff_trans = _or_texture(self.diff_trans, _diff_trans, "principledthin diff_trans")
         self.eta = _or_texture(self.eta, ior, "principledthin eta")
         _rates(self, ("specular_reflectance_sampling_rate", "specular_transmittance_sampling_rate",

@@ -50,7 +50,7 @@ from .columns import (
     TROW,
     TWOSIDED,
 )
-from .microfacet import d1, fresnel1, fresnel_conductor1, g11, sample_visible1
+from .microfacet import d1, fresnel1, fresnel_conductor1, g11, half_vector, sample_visible1
 from .principled import principled_eval, principled_sample
 from .principledthin import principledthin_eval, principledthin_sample
 from .warps import INV_PI, cosine_hemisphere3, frame3, to_world3
@@ -159,15 +159,9 @@ def _roughdielectric_eval(P, s, wi, wo):
     reflect = ci * co > 0
     eta = eta_rel if ci > 0 else 1.0 / eta_rel
     k = 1.0 if reflect else eta
-    hx, hy, hz = wi[0] + wo[0] * k, wi[1] + wo[1] * k, wi[2] + wo[2] * k
-    ln = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if ln == 0:
+    hx, hy, hz, dwi, dwo, ok = half_vector(wi, wo, k)
+    if not ok:
         return 0.0, 0.0, 0.0, 0.0
-    if hz < 0:
-        ln = -ln
-    hx, hy, hz = hx / ln, hy / ln, hz / ln
-    dwi = wi[0] * hx + wi[1] * hy + wi[2] * hz
-    dwo = wo[0] * hx + wo[1] * hy + wo[2] * hz
     if dwi * ci <= 0 or dwo * co <= 0:
         return 0.0, 0.0, 0.0, 0.0
     d = d1(hx, hy, hz, au, av, beck)

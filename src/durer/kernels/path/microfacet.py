@@ -97,6 +97,21 @@ def ggx_sample_visible1(wx, wy, wz, u0, u1, au, av):
 
 
 @nb.njit(**JIT, inline="always")
+def half_vector(wi, wo, k):
+    """The microfacet normal between wi and wo: wi + k wo normalised and turned to +z (k = 1 for a reflection, the
+    relative index on wi's side for a refraction, Walter et al.'s generalised half vector), with its dot products
+    with wi and wo; ok is False where wi + k wo has no direction."""
+    hx, hy, hz = wi[0] + wo[0] * k, wi[1] + wo[1] * k, wi[2] + wo[2] * k
+    ln = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if ln == 0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, False
+    if hz < 0:
+        ln = -ln
+    hx, hy, hz = hx / ln, hy / ln, hz / ln
+    return hx, hy, hz, wi[0] * hx + wi[1] * hy + wi[2] * hz, wo[0] * hx + wo[1] * hy + wo[2] * hz, True
+
+
+@nb.njit(**JIT, inline="always")
 def d1(mx, my, mz, au, av, beckmann):
     """D(m) of GGX, or of Beckmann where `beckmann`."""
     return beckmann_d1(mx, my, mz, au, av) if beckmann else ggx_d1(mx, my, mz, au, av)

@@ -38,7 +38,7 @@ from .columns import (
     PR_SPEC_TINT,
     PR_SPEC_TRANS,
 )
-from .microfacet import fresnel1, ggx_d1, ggx_g11, ggx_sample_visible1
+from .microfacet import fresnel1, ggx_d1, ggx_g11, ggx_sample_visible1, half_vector
 from .warps import INV_PI, cosine_hemisphere3
 
 LUMA = (0.212671, 0.715160, 0.072169)  # Mitsuba's luminance of linear sRGB
@@ -148,15 +148,9 @@ def principled_eval(P, s, wi, wo):
     reflect, front = ci * co > 0, ci > 0
     eta_path = eta if front else 1.0 / eta
     k = 1.0 if reflect else eta_path
-    hx, hy, hz = wi[0] + wo[0] * k, wi[1] + wo[1] * k, wi[2] + wo[2] * k
-    ln = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if ln == 0:
+    hx, hy, hz, dih, doh, ok = half_vector(wi, wo, k)
+    if not ok:
         return 0.0, 0.0, 0.0, 0.0
-    if hz < 0:
-        ln = -ln
-    hx, hy, hz = hx / ln, hy / ln, hz / ln
-    dih = wi[0] * hx + wi[1] * hy + wi[2] * hz
-    doh = wo[0] * hx + wo[1] * hy + wo[2] * hz
     f = fresnel1(dih, eta)[0]
     sg = 1.0 if front else -1.0
     compatible = dih * sg > 0 and (doh * sg > 0) == reflect  # the microfacet seen from both sides as the lobe needs
