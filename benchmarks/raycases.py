@@ -10,13 +10,14 @@ Meshes: the Stanford bunny and its subdivided version (Stanford Computer Graphic
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
+SHARED = Path(os.environ.get("DURER_SHARED", Path(__file__).resolve().parents[2] / "shared"))  # as tests/conftest.py
 
 
 def camera_rays(mesh: trimesh.Trimesh, res: int) -> tuple[np.ndarray, np.ndarray]:
