@@ -12,11 +12,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import MITSUBA_SCENES
 
 import durer
 from durer.cli import main
 from durer.rendering.explain import explain, walk
 from durer.rendering.texturing import leaf_weights
+
+needs_scenes = pytest.mark.skipif(not MITSUBA_SCENES.is_dir(), reason=f"Mitsuba scenes not found at {MITSUBA_SCENES} "
+                                  "(they live in ../shared beside the repository)")
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CORNELL, CAUSTIC = EXAMPLES / "cornell_box.xml", EXAMPLES / "caustic.xml"
@@ -46,6 +50,21 @@ def test_path_contributions_add_up_to_the_rendered_pixel(scene, flags, pixels, t
         assert sum(weights) == pytest.approx(1.0)
 
 
+def _check_light_samples(node: dict, filter_weight: float) -> int:
+    """Each light sample below a vertex: its contribution (the kernel's) is the product of the listed terms,
+    throughput x BSDF x emitter weight x MIS weight x filter weight. Returns how many were unblocked."""
+    unblocked = 0
+    for shadow in (c for c in node["children"] if c["kind"] == "shadow"):
+        s = shadow["light_sample"]
+        assert 0.0 <= s["mis_weight"] <= 1.0 and s["pdf"] > 0
+        if not shadow["blocked"]:
+            expected = (np.array(node["throughput"]) * np.array(s["bsdf"]) * np.array(s["emitter_weight"])
+                        * s["mis_weight"] * filter_weight)
+            np.testing.assert_allclose(shadow["contribution"], expected, rtol=1e-9, atol=1e-300)
+            unblocked += np.any(expected > 0)
+    return unblocked
+
+
 def test_each_sample_is_a_path_of_vertices_light_and_bsdf_samples():
     """A 2-sample pixel on the Cornell box's back wall: each sample is a chain camera -> bounce -> ... whose
     light samples carry the emitter's and the BSDF's values, and whose contribution is their product with the
@@ -61,14 +80,7 @@ def test_each_sample_is_a_path_of_vertices_light_and_bsdf_samples():
         while node is not None:
             assert node["depth"] == depth
             nxt = [c for c in node["children"] if c["kind"] == "bounce"]
-            for shadow in (c for c in node["children"] if c["kind"] == "shadow"):
-                shadows += 1
-                s = shadow["light_sample"]
-                assert 0.0 <= s["mis_weight"] <= 1.0 and s["pdf"] > 0
-                if not shadow["blocked"]:
-                    expected = (np.array(node["throughput"]) * np.array(s["bsdf"]) * np.array(s["emitter_weight"])
-                                * s["mis_weight"] * root["sample"]["filter_weight"])
-                    np.testing.assert_allclose(shadow["contribution"], expected, rtol=1e-9)
+            shadows += _check_light_samples(node, root["sample"]["filter_weight"])
             if nxt:
                 np.testing.assert_allclose(nxt[0]["throughput"], node["next"]["throughput"])
                 np.testing.assert_allclose(nxt[0]["origin"], node["hit"]["point"], atol=1e-6)  # offset off the surface
@@ -160,3 +172,22 @@ def test_a_camera_ray_on_a_textured_light_sees_the_texture_at_its_uv():
             np.testing.assert_allclose(root["contribution"], np.multiply(radiance, root["sample"]["filter_weight"]),
                                        rtol=1e-12)
     assert len(colours) == 2
+
+
+@needs_scenes
+@pytest.mark.parametrize("name", ["bsdf_normalmap_with.xml", "bsdf_roughconductor_anisotropic_aluminium.xml",
+                                  "bsdf_roughdielectric_textured.xml"])
+def test_light_samples_show_the_bsdf_in_the_kernels_shading_frame(name):
+    """A normal map, anisotropic roughness (tangents along dp/du) and a textured roughness: the listed BSDF value
+    and MIS weight are those the kernel used, so they multiply to its contribution (a plain frame around the
+    normal, at the texture's default, gives other values on these materials)."""
+    scene = durer.load(MITSUBA_SCENES / "mitsuba-data/docs/scenes" / name)
+    checked = 0
+    for x, y in [(10, 10), (12, 9), (9, 13), (14, 12)]:
+        tree = explain(scene, 24, 24, x, y, integrator="path", samples=2, max_depth=3, seed=2)
+        for root in tree.rays:
+            node = root
+            while node is not None:
+                checked += _check_light_samples(node, root["sample"]["filter_weight"])
+                node = next((c for c in node["children"] if c["kind"] == "bounce"), None)
+    assert checked >= 4

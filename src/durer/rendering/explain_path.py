@@ -8,7 +8,8 @@ PathTracer._trace_unfused (the same kernels as the renderer's fused bounce, the 
   (vertex: point, geometric normal, material slot and its BSDF) and, as `contribution`, the emission that ray
   found (throughput x radiance x MIS weight against light sampling, x the sample's filter weight);
 * below each vertex, a `shadow` node for next-event estimation: the light sample's direction, its emitter pdf,
-  the BSDF's value and pdf there, its MIS weight, whether it was blocked, and what it adds;
+  the BSDF's value and pdf there (in the kernel's shading frame: textures, normal maps, anisotropic tangents), its
+  MIS weight, whether it was blocked, and what it adds;
 * the next `bounce` node below it, with the BSDF sample's pdf, whether it was a delta lobe, the new throughput
   (Russian roulette included).
 A node's contribution is what it adds to the pixel, so the pixel is the sum of all contributions (PixelTree.color),
@@ -22,10 +23,11 @@ import numpy as np
 from ..accel.hits import object_kind
 from ..kernels.common import MISS
 from ..kernels.path.bounce import dim1, dim2
-from ..kernels.path.warps import frame3, power_heuristic1, to_local3
+from ..kernels.path.replay import light_sample_bsdf
+from ..kernels.path.warps import power_heuristic1
 from ..scene.cameras import image_camera
 from . import film
-from .bsdfs import TEXTURED_PARAMS, eval_pdf
+from .bsdfs import TEXTURED_PARAMS
 from .path import PIXEL_KEY, PathTracer
 from .raycaster import RenderContext
 from .sampling import key, sobol_pair, uniform
@@ -148,21 +150,17 @@ class _Recorder:
         skey = key(opts.seed, np.array([pixel]), np.array([sample]))
         u = sobol_pair(pkey, np.array([sample]), dim2(depth, 0))
         ld, dist, lw, lpdf = tracer.emitters.sample(p, uniform(skey, dim1(depth, 0)), u)
-        slot = int(b["slot"][i])
-        n = b["normal"][i] * (-1.0 if tracer.table.flip[slot] else 1.0)
-        s, t = frame3(*n)
-        d = b["d"][i]
-        wi = np.array([to_local3(-d[0], -d[1], -d[2], s, t, *n)])
-        wo = np.array([to_local3(*ld[0], s, t, *n)])
-        f, bpdf = eval_pdf(tracer.table, np.array([slot]), wi, wo)
-        mis = power_heuristic1(float(lpdf[0]), float(bpdf[0]))
+        P, T, tex = tracer.table.packed()
+        f, bpdf = light_sample_bsdf(P, T, tex, int(b["slot"][i]), b["normal"][i], b["shading_normal"][i],
+                                    b["uvd"][i], b["d"][i], ld[0])
+        mis = power_heuristic1(float(lpdf[0]), bpdf)
         c = b["shadow_c"][i]
         reaches = bool(b["unblocked"][i])
         length = float(dist[0]) if np.isfinite(dist[0]) else self.far
         return {"kind": "shadow", "origin": _vec(b["shadow_o"][i]), "direction": _vec(b["shadow_d"][i]),
                 "t": None, "hit": None, "blocked": not reaches, "distance": float(dist[0]) if np.isfinite(dist[0])
                 else None, "light_sample": {"emitter_weight": _vec(lw[0]), "pdf": _num(lpdf[0]),
-                                            "bsdf": _vec(f[0]), "bsdf_pdf": _num(bpdf[0]), "mis_weight": mis},
+                                            "bsdf": _vec(f), "bsdf_pdf": _num(bpdf), "mis_weight": mis},
                 "weight": 1.0, "throughput": _vec(b["thr"][i]), "contribution": _vec(fw * c) if reaches else [0.0] * 3,
                 "children": [], "end": _vec(b["shadow_o"][i] + length * b["shadow_d"][i])}
 
