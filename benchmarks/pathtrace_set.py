@@ -67,14 +67,15 @@ def resize(scene: Path, longer: int) -> tuple[int, int]:
     text = film.read_text()
     defaults = dict(DEFAULT.findall(scene.read_text())) | dict(DEFAULT.findall(text))
     start = text.index("<film")
-    body = text[start:text.index("</film>", start)]
+    end = text.index("</film>", start)
+    body = text[start:end]
     size = {m.group(2): m.group(3) for m in SIZE.finditer(body)}
     w, h = (int(defaults[v[1:]] if v.startswith("$") else v) for v in (size["width"], size["height"]))
     scale = longer / max(w, h)
     new = {"width": max(1, round(w * scale)), "height": max(1, round(h * scale))}
     body = SIZE.sub(lambda m: f"{m.group(1)}{new[m.group(2)]}{m.group(4)}", body)
     body = re.sub(r'<integer\s+name="crop_\w+"[^>]*/>', "", body)
-    text = text[:start] + body + text[start + len(body):]
+    text = text[:start] + body + text[end:]
     film.unlink()
     film.write_text(text)
     return new["width"], new["height"]
