@@ -20,7 +20,6 @@ import threading
 
 import numpy as np
 
-from ..accel.bvh import BVHAccelerator
 from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
@@ -56,7 +55,7 @@ class PathTracer:
         # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators,
         # instances and solid textures take the unfused wavefront of closest_hit / any_hit queries
         numba_shading = not self.table.is_texture.any()
-        self._bvh = _tree_to_walk(ctx) if numba_shading else None
+        self._bvh = ctx.accel.kernel_tree() if numba_shading else None
         self._fused = self._bvh is not None
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
         # the denoiser's features: each path's first non-specular hit's albedo and normal, the emission it sees
@@ -279,19 +278,6 @@ def prepare_path(ctx: RenderContext) -> None:
     """Gather the path tracer's inputs (the bundle's BSDFs and emitters, the surfaces' arrays, the tree to walk)
     once for a render."""
     ctx.prepared.setdefault("path", PathTracer(ctx))
-def _tree_to_walk(ctx: RenderContext) -> tuple | None:
-    """The one-level tree the fused bounce walks (Accelerator.kernel_tree), or None. A BVH with instanced meshes
-    has none (two-level), so the path tracer builds one over the scene with its instances flattened, whose
-    triangles it holds anyway (PathTracer._surfaces) and whose ids are the same virtual ids: through the queries
-    the three instanced scenes of ../shared/scenes/mitsuba took 2.6-3.8x Mitsuba scalar_rgb's time per sample
-    (benchmarks/README.md, "Path tracer on the real Mitsuba scenes"). Flattened, a hit's t is computed on world
-    triangles instead of in object space, so such images move by float rounding."""
-    tree = ctx.accel.kernel_tree()
-    if tree is None and isinstance(ctx.accel, BVHAccelerator) and ctx.accel.instances is not None:
-        tree = BVHAccelerator(ctx.compiled.flat).kernel_tree()
-    return tree
-
-
 def _unit_corners(normals: np.ndarray) -> np.ndarray:
     """(F, 3, 3) corner normals scaled to unit length (zero rows stay zero: flat triangles)."""
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3, 3)
