@@ -121,13 +121,14 @@ def main() -> None:
     engines = ["durer", "scalar_rgb"] + ([] if a.skip_llvm or "llvm_ad_rgb" not in mi.variants() else
                                          ["llvm_ad_rgb"])
     names = [n for n in LOADABLE if not a.only or any(w in n for w in a.only)]
-    load = os.getloadavg()[0]
+    load, now = os.getloadavg()[0], time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     print(f"{a.res} px on the longer side, {a.spp} spp, {a.rounds} rounds, median s/spp wall / CPU; "
-          f"{os.cpu_count()} CPU cores, load {load:.1f} at the start, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}\n")
+          f"{os.cpu_count()} CPU cores, load {load:.1f} at the start, {now}\n")
     head = " | ".join(f"{e} wall / CPU" for e in engines)
-    print(f"| scene | size | {head} | durer / scalar | " + ("durer / llvm |" if "llvm_ad_rgb" in engines else ""))
-    print("|---|---|" + "---|" * len(engines) + "---|" + ("---|" if "llvm_ad_rgb" in engines else ""), flush=True)
-    vs_scalar, vs_llvm = [], []
+    llvm = "llvm_ad_rgb" in engines
+    print(f"| scene | size | {head} | durer / scalar wall (CPU) |" + (" durer / llvm wall (CPU) |" if llvm else ""))
+    print("|---|---|" + "---|" * len(engines) + "---|" + ("---|" if llvm else ""), flush=True)
+    ratios = {k: [] for k in ("scalar wall", "scalar cpu", "llvm wall", "llvm cpu")}
     for name in names:
         with tempfile.TemporaryDirectory() as tmp:
             root = mirror(Path(tmp) / "scenes", SCENES)
@@ -141,23 +142,27 @@ def main() -> None:
             cpu = {e: [] for e in engines}
             for r in range(a.rounds):
                 for e in engines[r % len(engines):] + engines[:r % len(engines)]:
-                    _, sec, cpu_sec = time_call(lambda e=e, r=r: render[e](1 + r))
+                    _, sec, cpu_sec = time_call(lambda f=render[e], r=r: f(1 + r))
                     wall[e].append(sec / a.spp)
                     cpu[e].append(cpu_sec / a.spp)
         med = {e: float(np.median(wall[e])) for e in engines}
-        cells = " | ".join(f"{med[e]:.4f} / {np.median(cpu[e]):.4f}" for e in engines)
-        vs_scalar.append(med["durer"] / med["scalar_rgb"])
-        row = f"| {name.split('/')[-1]} | {w}x{h} | {cells} | {vs_scalar[-1]:.2f} |"
-        if "llvm_ad_rgb" in engines:
-            vs_llvm.append(med["durer"] / med["llvm_ad_rgb"])
-            row += f" {vs_llvm[-1]:.2f} |"
+        mcpu = {e: float(np.median(cpu[e])) for e in engines}
+        cells = " | ".join(f"{med[e]:.4f} / {mcpu[e]:.4f}" for e in engines)
+        row = f"| {name.split('/')[-1]} | {w}x{h} | {cells} |"
+        for other, key in (("scalar_rgb", "scalar"), ("llvm_ad_rgb", "llvm")):
+            if other in engines:
+                ratios[key + " wall"].append(med["durer"] / med[other])
+                ratios[key + " cpu"].append(mcpu["durer"] / mcpu[other])
+                row += f" {ratios[key + ' wall'][-1]:.2f} ({ratios[key + ' cpu'][-1]:.2f}) |"
         print(row, flush=True)
-    tail = f"| **median** ({len(names)} scenes) | | " + " | " * (len(engines) - 1) + f" | **{np.median(vs_scalar):.2f}** |"
-    if vs_llvm:
-        tail += f" **{np.median(vs_llvm):.2f}** |"
+    tail = f"| **median** ({len(names)} scenes) | |" + " |" * len(engines)
+    for key in ("scalar", "llvm") if llvm else ("scalar",):
+        tail += f" **{np.median(ratios[key + ' wall']):.2f}** ({np.median(ratios[key + ' cpu']):.2f}) |"
     print(tail)
-    print(f"\nload {os.getloadavg()[0]:.1f} at the end; durer / scalar {min(vs_scalar):.2f}-{max(vs_scalar):.2f}"
-          + (f", durer / llvm {min(vs_llvm):.2f}-{max(vs_llvm):.2f}" if vs_llvm else ""))
+    print(f"\nload {os.getloadavg()[0]:.1f} at the end; durer / scalar wall {min(ratios['scalar wall']):.2f}-"
+          f"{max(ratios['scalar wall']):.2f}, CPU {min(ratios['scalar cpu']):.2f}-{max(ratios['scalar cpu']):.2f}"
+          + (f"; durer / llvm wall {min(ratios['llvm wall']):.2f}-{max(ratios['llvm wall']):.2f}, CPU "
+             f"{min(ratios['llvm cpu']):.2f}-{max(ratios['llvm cpu']):.2f}" if llvm else ""))
 
 
 if __name__ == "__main__":
