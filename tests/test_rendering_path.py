@@ -17,6 +17,8 @@ from durer.accel.bvh import BVHAccelerator
 from durer.kernels.path.warps import power_heuristic1
 from durer.rendering import integrators as I
 from durer.rendering import path as P
+from durer.rendering.context import make_context
+from durer.rendering.renderer import render_in, resolve
 from durer.rendering.sampling import sobol_pair
 from durer.scene.bsdfs import Diffuse, Surface
 
@@ -241,3 +243,28 @@ def test_path_tracer_reaches_any_accelerator_through_the_protocol():
     np.testing.assert_array_equal(bvh.color, brute.color)
     np.testing.assert_array_equal(bvh.color, counted.color)
     assert counted.stats.nonshadow_rays >= 12 * 10 * 2 and counted.stats.shadow_rays > 0
+
+
+def test_instanced_meshes_take_the_fused_bounce(monkeypatch, tmp_path):
+    """A mesh placed twice is stored once (two instances, traced two-level by queries); a path render traces it
+    flattened into one tree (context.make_context) through the fused bounce, and gives the image, depth and
+    normals of the two-level accelerator's unfused wavefront to the bit."""
+    (tmp_path / "tet.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    tet = ('<shape type="obj"><string name="filename" value="tet.obj"/><transform name="to_world"><scale value="0.6"/>'
+           '<translate x="{x}" y="0.1" z="-1"/></transform><bsdf type="diffuse"/></shape>')
+    (tmp_path / "two.xml").write_text(MIXED.replace("</scene>", tet.format(x=-0.6) + tet.format(x=0.9) + "</scene>"))
+    scene = durer.load(tmp_path / "two.xml")
+    width, height, options = resolve(scene, 16, 12, integrator="path", samples=2, max_depth=-1, seed=3)
+    flat = make_context(scene, options)
+    assert len(flat.bundle.geometry.instance_mesh) >= 2 and flat.accel.kernel_tree() is not None
+    two_level = dataclasses.replace(flat, accel=BVHAccelerator(flat.bundle.geometry), prepared={})
+    assert two_level.accel.kernel_tree() is None
+    calls = []
+    fused_kernel = P.trace_bounce
+    monkeypatch.setattr(P, "trace_bounce", lambda *a: calls.append(1) or fused_kernel(*a))
+    unfused = render_in(two_level, width, height)
+    assert not calls
+    fused = render_in(flat, width, height)
+    assert calls
+    for a, b in ((fused.color, unfused.color), (fused.depth, unfused.depth), (fused.normals, unfused.normals)):
+        np.testing.assert_array_equal(a, b)

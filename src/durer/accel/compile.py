@@ -214,20 +214,14 @@ class CompiledScene:
         tris = [self.triangles] + [self.instance_triangles(k) for k in range(len(self.instance_mesh))]
         uv, normals = self.triangle_uv, self.triangle_normals
         if self.has_uv:
-            uv = np.concatenate([self.triangle_uv.reshape(-1, 3, 2)] + [
-                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])), self.triangle_uv,
-                              self.mesh_uv, normals=False) for k, m in enumerate(self.instance_mesh)])
+            uv = np.concatenate([self.triangle_uv.reshape(-1, 3, 2)] + self._placed_corners(self.mesh_uv, False))
         colors = self.triangle_colors
         if self.has_colors:
-            colors = np.concatenate([self.triangle_colors.reshape(-1, 3, 3)] + [
-                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])),
-                              self.triangle_colors, self.mesh_colors, normals=False)
-                for k, m in enumerate(self.instance_mesh)])
+            colors = np.concatenate([self.triangle_colors.reshape(-1, 3, 3)]
+                                    + self._placed_corners(self.mesh_colors, False))
         if self.has_normals:
-            normals = np.concatenate([self.triangle_normals.reshape(-1, 3, 3)] + [
-                self._corners(self.instance_offset[k] + np.arange(len(self.mesh_triangles[m])),
-                              self.triangle_normals, self.mesh_normals, normals=True)
-                for k, m in enumerate(self.instance_mesh)])
+            normals = np.concatenate([self.triangle_normals.reshape(-1, 3, 3)]
+                                     + self._placed_corners(self.mesh_normals, True))
         mats = [self.triangle_material] + [np.full(len(self.mesh_triangles[m]), mat, np.int32)
                                           for m, mat in zip(self.instance_mesh, self.instance_material, strict=True)]
         return replace(self, triangles=np.ascontiguousarray(np.concatenate(tris)),
@@ -235,6 +229,19 @@ class CompiledScene:
                        instance_mesh=np.zeros(0, np.int32), instance_matrix=np.zeros((0, 4, 4)),
                        instance_material=np.zeros(0, np.int32), triangle_uv=uv, mesh_uv=(),
                        triangle_normals=normals, mesh_normals=(), triangle_colors=colors, mesh_colors=())
+
+    def _placed_corners(self, mesh_values: tuple, normals: bool) -> list[np.ndarray]:
+        """Each instance's corner values (Fi, 3, k) as _corners gives them for all its triangles (world space for
+        normals), without _corners' search of every id: `flat` of the sphere grid (12 instances, 325k
+        triangles) spent most of its 0.7 s there, every path render."""
+        out = []
+        for inst, mesh in enumerate(self.instance_mesh):
+            m = self.instance_matrix[inst][:3, :3]
+            v = np.asarray(mesh_values[int(mesh)], dtype=np.float64)
+            if normals:
+                v = v @ np.linalg.inv(m)
+            out.append(v[:, [0, 2, 1]] if np.linalg.det(m) < 0 else v)
+        return out
 
     @property
     def nbytes(self) -> int:

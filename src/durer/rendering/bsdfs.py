@@ -23,6 +23,7 @@ estimate of the blend.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -101,6 +102,7 @@ from .textures import TextureTable, mean
 # the textured parameters, in the order of the TEX_* columns (kernels/path/bsdf.py)
 TEXTURED_PARAMS = ("c1", "c2", "alpha_u", "alpha_v", "opacity", "weight", "emission", "normalmap", "bump")
 ROUGH_RES = 64  # cos(theta) samples of the rough plastic's transmittance table (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES)
+ROUGH_MU = np.maximum(1e-6, np.linspace(0.0, 1.0, ROUGH_RES))  # those cos(theta)
 
 
 def _z3() -> np.ndarray:
@@ -271,11 +273,11 @@ def _row(m, textures: TextureTable) -> dict:
         r.update(kind=PLASTIC, c1=m.diffuse_reflectance, c2=m.specular_reflectance, eta=eta, nonlinear=m.nonlinear,
                  spec_weight=s_mean / (d_mean + s_mean), fdr_int=fresnel_diffuse_reflectance(1.0 / eta))
         if isinstance(m, RoughPlastic):
-            mu = np.maximum(1e-6, np.linspace(0.0, 1.0, ROUGH_RES))
             b = m.distribution == "beckmann"
+            alpha = float(m.alpha)
             r.update(kind=ROUGHPLASTIC, alpha_u=m.alpha, alpha_v=m.alpha, beckmann=b,
-                     transmittance=_rough_albedo(mu, m.alpha, eta, transmit=True, beckmann=b),
-                     fdr_int=2.0 * np.mean(_rough_albedo(mu, m.alpha, 1.0 / eta, transmit=False, beckmann=b) * mu))
+                     transmittance=_rough_albedo(alpha, float(eta), True, b),
+                     fdr_int=2.0 * np.mean(_rough_albedo(alpha, 1.0 / float(eta), False, b) * ROUGH_MU))
     else:
         r["is_texture"] = True  # a solid texture: resolved per hit into the materials it blends
     return _textures(r, textures)
@@ -309,13 +311,15 @@ def fresnel_diffuse_reflectance(eta: float) -> float:
     return 0.919317 - 3.4793 * i + 6.75335 * i ** 2 - 7.80989 * i ** 3 + 4.98554 * i ** 4 - 1.36881 * i ** 5
 
 
-def _rough_albedo(mu: np.ndarray, alpha: float, eta: float, transmit: bool, n: int = 64,
-                  beckmann: bool = False) -> np.ndarray:
+@lru_cache(maxsize=256)
+def _rough_albedo(alpha: float, eta: float, transmit: bool, beckmann: bool = False, n: int = 64) -> np.ndarray:
     """Single-scattering reflectance (or transmittance) of a rough GGX (or Beckmann) dielectric interface at
-    cos(theta) = mu (kernels/path/microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals)."""
-    out = np.empty(len(mu))
-    rough_albedo_kernel(np.ascontiguousarray(mu, dtype=np.float64), float(alpha), float(eta), bool(transmit), n, out,
-                        np.bool_(beckmann))
+    cos(theta) = ROUGH_MU (kernels/path/microfacet.rough_albedo_kernel: the midpoint rule on n x n visible normals).
+    Kept per process (read-only): a table took 0.1-0.35 s, every render, and a scene with several rough
+    plastics spent most of a 16-spp render building them (integrator_direct_both: 8 tables, benchmarks/README)."""
+    out = np.empty(len(ROUGH_MU))
+    rough_albedo_kernel(ROUGH_MU, float(alpha), float(eta), bool(transmit), n, out, np.bool_(beckmann))
+    out.flags.writeable = False
     return out
 
 

@@ -4,9 +4,10 @@ importance sampling (power heuristic), and Russian roulette, as Mitsuba 3's `pat
 `max_depth` has Mitsuba's meaning: 1 shows emitters seen directly, 2 adds direct light, -1 is unbounded (paths end
 by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths are traced as a wavefront, one
 bounce of all live paths of a batch at a time, with no Python loop over rays. When the accelerator offers a
-one-level tree to walk (Accelerator.kernel_tree: the default BVH without instances) a bounce is one Numba kernel
+one-level tree to walk (Accelerator.kernel_tree: the default BVH, over instances flattened for path renders by
+context.make_context) a bounce is one Numba kernel
 (kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path); otherwise (other
-accelerators, instances, solid textures) it is one closest_hit and one any_hit query on the
+accelerators, solid textures) it is one closest_hit and one any_hit query on the
 scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces (kernels/path/surface.py)
 and one for the shading (kernels/path/bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray).
 Both give the same numbers to the bit. Random numbers come from the counter-based stream of sampling.py /
@@ -52,8 +53,8 @@ class PathTracer:
             _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3)),
             np.asarray(flat.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)))
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
-        # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators,
-        # instances and solid textures take the unfused wavefront of closest_hit / any_hit queries
+        # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators
+        # and solid textures take the unfused wavefront of closest_hit / any_hit queries
         numba_shading = not self.table.is_texture.any()
         self._bvh = ctx.accel.kernel_tree() if numba_shading else None
         self._fused = self._bvh is not None
