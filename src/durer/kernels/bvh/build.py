@@ -87,6 +87,20 @@ def leaf_items(tris, order):
 
 
 @nb.njit(**JIT)
+def _child_bounds(ib, first, end, box, cb, c):
+    """box[c] and cb[c]: the bounds and centroid bounds of items first..end of ib (lo, hi, centroid rows)."""
+    for a in range(3):
+        box[c, a] = cb[c, a] = np.inf
+        box[c, 3 + a] = cb[c, 3 + a] = -np.inf
+    for j in range(first, end):
+        for a in range(3):
+            box[c, a] = min(box[c, a], ib[j, a])
+            box[c, 3 + a] = max(box[c, 3 + a], ib[j, 3 + a])
+            cb[c, a] = min(cb[c, a], ib[j, 6 + a])
+            cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
+
+
+@nb.njit(**JIT)
 def build_bvh2(lo, hi, max_leaf, defer):
     """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays, the item order and the deferred nodes.
 
@@ -123,18 +137,18 @@ def build_bvh2(lo, hi, max_leaf, defer):
             cb[0, a] = min(cb[0, a], c)
             cb[0, 3 + a] = max(cb[0, 3 + a], c)
 
-    bin_box = np.empty((3, N_BINS, 6))
-    bin_cnt = np.zeros((3, N_BINS), np.int64)
+    bins = np.empty((3 * N_BINS, 6))         # per axis a and bin b, row a * N_BINS + b: lo xyz, hi xyz
+    bin_cnt = np.zeros(3 * N_BINS, np.int64)
     right_area = np.empty(N_BINS)
     right_cnt = np.empty(N_BINS, np.int64)
     scale = np.zeros(3)
-    tmp = np.empty(9)
     stack = np.empty((128, 3), np.int64)   # node, first, end; depth-first keeps the stack at the tree depth
     m = 1
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
     sp = 1
     deferred = np.empty((cap if defer > 0 else 0, 3), np.int64)
     n_def = 0
+    inf = np.inf
     while sp > 0:
         sp -= 1
         node, first, end = stack[sp, 0], stack[sp, 1], stack[sp, 2]
@@ -148,13 +162,12 @@ def build_bvh2(lo, hi, max_leaf, defer):
             n_def += 1
             continue
         nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
-        # bin centroids on all three axes in one pass
-        bin_cnt[:, :] = 0
         for a in range(3):
             for b in range(nbins):
-                for k in range(3):
-                    bin_box[a, b, k] = np.inf
-                    bin_box[a, b, 3 + k] = -np.inf
+                row = a * N_BINS + b
+                bin_cnt[row] = 0
+                bins[row, 0] = bins[row, 1] = bins[row, 2] = inf
+                bins[row, 3] = bins[row, 4] = bins[row, 5] = -inf
         n_axes = 0
         for a in range(3):
             ext = cb[node, 3 + a] - cb[node, a]
@@ -165,42 +178,49 @@ def build_bvh2(lo, hi, max_leaf, defer):
             if cnt <= 7:
                 continue  # coincident centroids: no plane separates them
         else:
+            # bin centroids on all three axes in one pass (an axis of no extent bins all in bin 0, unused)
+            c0, c1, c2 = cb[node, 0], cb[node, 1], cb[node, 2]
+            s0, s1, s2 = scale[0], scale[1], scale[2]
+            top = nbins - 1
             for j in range(first, end):
-                for a in range(3):
-                    if scale[a] == 0.0:
-                        continue
-                    b = int((ib[j, 6 + a] - cb[node, a]) * scale[a])
-                    if b >= nbins:
-                        b = nbins - 1
-                    bin_cnt[a, b] += 1
-                    for k in range(3):
-                        bin_box[a, b, k] = min(bin_box[a, b, k], ib[j, k])
-                        bin_box[a, b, 3 + k] = max(bin_box[a, b, 3 + k], ib[j, 3 + k])
+                x0, y0, z0, x1, y1, z1 = ib[j, 0], ib[j, 1], ib[j, 2], ib[j, 3], ib[j, 4], ib[j, 5]
+                b0 = min(int((ib[j, 6] - c0) * s0), top)
+                b1 = min(int((ib[j, 7] - c1) * s1), top) + N_BINS
+                b2 = min(int((ib[j, 8] - c2) * s2), top) + 2 * N_BINS
+                for row in (b0, b1, b2):
+                    bin_cnt[row] += 1
+                    bins[row, 0] = min(bins[row, 0], x0)
+                    bins[row, 1] = min(bins[row, 1], y0)
+                    bins[row, 2] = min(bins[row, 2], z0)
+                    bins[row, 3] = max(bins[row, 3], x1)
+                    bins[row, 4] = max(bins[row, 4], y1)
+                    bins[row, 5] = max(bins[row, 5], z1)
         # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the nbins-1 planes
-        best_cost = np.inf
+        best_cost = inf
         best_axis = -1
         best_bin = 0
         for a in range(3):
             if scale[a] == 0.0:
                 continue
-            rl0 = rl1 = rl2 = np.inf
-            rh0 = rh1 = rh2 = -np.inf
+            base = a * N_BINS
+            rl0 = rl1 = rl2 = inf
+            rh0 = rh1 = rh2 = -inf
             rc = 0
             for b in range(nbins - 1, 0, -1):
-                bb = bin_box[a, b]
+                bb = bins[base + b]
                 rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
                 rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
-                rc += bin_cnt[a, b]
+                rc += bin_cnt[base + b]
                 right_area[b] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
                 right_cnt[b] = rc
-            ll0 = ll1 = ll2 = np.inf
-            lh0 = lh1 = lh2 = -np.inf
+            ll0 = ll1 = ll2 = inf
+            lh0 = lh1 = lh2 = -inf
             lc = 0
             for b in range(nbins - 1):
-                bb = bin_box[a, b]
+                bb = bins[base + b]
                 ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
                 lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
-                lc += bin_cnt[a, b]
+                lc += bin_cnt[base + b]
                 if lc == 0 or right_cnt[b + 1] == 0:
                     continue
                 cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[b + 1] * right_cnt[b + 1]
@@ -214,48 +234,48 @@ def build_bvh2(lo, hi, max_leaf, defer):
         l, r = m, m + 1
         m += 2
         left[node], right[node] = l, r
-        for a in range(3):
-            box[l, a] = box[r, a] = cb[l, a] = cb[r, a] = np.inf
-            box[l, 3 + a] = box[r, 3 + a] = cb[l, 3 + a] = cb[r, 3 + a] = -np.inf
         if best_axis < 0:
             mid = first + cnt // 2  # too many coincident centroids to keep together: split the list in half
+            _child_bounds(ib, first, mid, box, cb, l)
+            _child_bounds(ib, mid, end, box, cb, r)
         else:
-            # partition the items by bin; the children's boxes are the unions of their bins
+            # partition the items by bin (in this order: a later halving split and the leaves' order follow it);
+            # the children's boxes and centroid bounds grow in registers as each item is placed
+            al0 = al1 = al2 = acl0 = acl1 = acl2 = inf
+            ah0 = ah1 = ah2 = ach0 = ach1 = ach2 = -inf
+            bl0 = bl1 = bl2 = bcl0 = bcl1 = bcl2 = inf
+            bh0 = bh1 = bh2 = bch0 = bch1 = bch2 = -inf
             a = best_axis
             i = first
             k = end - 1
             lo_a = cb[node, a]
             sc = scale[a]
+            top = nbins - 1
             while i <= k:
-                b = int((ib[i, 6 + a] - lo_a) * sc)
-                if b >= nbins:
-                    b = nbins - 1
-                c = l if b <= best_bin else r
-                for q in range(3):
-                    box[c, q] = min(box[c, q], ib[i, q])
-                    box[c, 3 + q] = max(box[c, 3 + q], ib[i, 3 + q])
-                    cb[c, q] = min(cb[c, q], ib[i, 6 + q])
-                    cb[c, 3 + q] = max(cb[c, 3 + q], ib[i, 6 + q])
-                if b <= best_bin:
+                x0, y0, z0, x1, y1, z1 = ib[i, 0], ib[i, 1], ib[i, 2], ib[i, 3], ib[i, 4], ib[i, 5]
+                cx, cy, cz = ib[i, 6], ib[i, 7], ib[i, 8]
+                if min(int((ib[i, 6 + a] - lo_a) * sc), top) <= best_bin:
+                    al0, al1, al2 = min(al0, x0), min(al1, y0), min(al2, z0)
+                    ah0, ah1, ah2 = max(ah0, x1), max(ah1, y1), max(ah2, z1)
+                    acl0, acl1, acl2 = min(acl0, cx), min(acl1, cy), min(acl2, cz)
+                    ach0, ach1, ach2 = max(ach0, cx), max(ach1, cy), max(ach2, cz)
                     i += 1
                 else:
-                    for q in range(9):
-                        tmp[q] = ib[i, q]
+                    bl0, bl1, bl2 = min(bl0, x0), min(bl1, y0), min(bl2, z0)
+                    bh0, bh1, bh2 = max(bh0, x1), max(bh1, y1), max(bh2, z1)
+                    bcl0, bcl1, bcl2 = min(bcl0, cx), min(bcl1, cy), min(bcl2, cz)
+                    bch0, bch1, bch2 = max(bch0, cx), max(bch1, cy), max(bch2, cz)
                     for q in range(9):
                         ib[i, q] = ib[k, q]
-                    for q in range(9):
-                        ib[k, q] = tmp[q]
+                    ib[k, 0], ib[k, 1], ib[k, 2], ib[k, 3], ib[k, 4], ib[k, 5] = x0, y0, z0, x1, y1, z1
+                    ib[k, 6], ib[k, 7], ib[k, 8] = cx, cy, cz
                     order[i], order[k] = order[k], order[i]
                     k -= 1
             mid = i
-        if best_axis < 0:
-            for j in range(first, end):
-                c = l if j < mid else r
-                for a in range(3):
-                    box[c, a] = min(box[c, a], ib[j, a])
-                    box[c, 3 + a] = max(box[c, 3 + a], ib[j, 3 + a])
-                    cb[c, a] = min(cb[c, a], ib[j, 6 + a])
-                    cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
+            box[l, 0], box[l, 1], box[l, 2], box[l, 3], box[l, 4], box[l, 5] = al0, al1, al2, ah0, ah1, ah2
+            cb[l, 0], cb[l, 1], cb[l, 2], cb[l, 3], cb[l, 4], cb[l, 5] = acl0, acl1, acl2, ach0, ach1, ach2
+            box[r, 0], box[r, 1], box[r, 2], box[r, 3], box[r, 4], box[r, 5] = bl0, bl1, bl2, bh0, bh1, bh2
+            cb[r, 0], cb[r, 1], cb[r, 2], cb[r, 3], cb[r, 4], cb[r, 5] = bcl0, bcl1, bcl2, bch0, bch1, bch2
         if sp + 2 > stack.shape[0]:
             grown = np.empty((2 * stack.shape[0], 3), np.int64)
             for q in range(sp):  # element by element: an array assignment compiles ~5 s of error formatting
