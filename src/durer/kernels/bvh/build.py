@@ -24,69 +24,6 @@ def _area(lx, ly, lz, hx, hy, hz):
 
 
 @nb.njit(**JIT)
-def item_boxes(tris, sphere_lo, sphere_hi):
-    """Boxes (n, 3) lo and hi of the triangles (F, 9) followed by the spheres' boxes (S, 3)."""
-    f = tris.shape[0]
-    n = f + sphere_lo.shape[0]
-    lo = np.empty((n, 3))
-    hi = np.empty((n, 3))
-    for i in range(f):
-        for a in range(3):
-            x, y, z = tris[i, a], tris[i, 3 + a], tris[i, 6 + a]
-            lo[i, a] = min(x, y, z)
-            hi[i, a] = max(x, y, z)
-    for i in range(f, n):
-        for a in range(3):
-            lo[i, a] = sphere_lo[i - f, a]
-            hi[i, a] = sphere_hi[i - f, a]
-    return lo, hi
-
-
-@nb.njit(**JIT)
-def mesh_normals_bounds(tris):
-    """Unit normals (F, 3) of triangles (F, 3, 3) (zero for a degenerate one) and the mesh's bounds lo, hi (3,),
-    in one pass: NumPy's cross product, norm and two reductions over the (F, 3, 3) array took 0.5 s of the 1.1M
-    bunny's 2 s build. The arithmetic is NumPy's (a1 b2 - a2 b1; sqrt((x x + y y) + z z)), so the same bits."""
-    f = tris.shape[0]
-    normals = np.zeros((f, 3))
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
-    for i in range(f):
-        ax, ay, az = tris[i, 1, 0] - tris[i, 0, 0], tris[i, 1, 1] - tris[i, 0, 1], tris[i, 1, 2] - tris[i, 0, 2]
-        bx, by, bz = tris[i, 2, 0] - tris[i, 0, 0], tris[i, 2, 1] - tris[i, 0, 1], tris[i, 2, 2] - tris[i, 0, 2]
-        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        length = np.sqrt((nx * nx + ny * ny) + nz * nz)
-        if length > 0.0:
-            nx, ny, nz = nx / length, ny / length, nz / length
-        normals[i, 0], normals[i, 1], normals[i, 2] = nx, ny, nz
-        for c in range(3):
-            for a in range(3):
-                x = tris[i, c, a]
-                lo[a] = min(lo[a], x)
-                hi[a] = max(hi[a], x)
-    return normals, lo, hi
-
-
-@nb.njit(**JIT)
-def leaf_items(tris, order):
-    """leaf_prim (triangle id, or -(sphere + 1)) and leaf_tri (the triangle's 9 coordinates, zeros for a
-    sphere) in leaf order."""
-    f = tris.shape[0]
-    n = order.shape[0]
-    leaf_prim = np.empty(n, np.int32)
-    leaf_tri = np.zeros((n, 9))
-    for j in range(n):
-        p = order[j]
-        if p < f:
-            leaf_prim[j] = p
-            for q in range(9):
-                leaf_tri[j, q] = tris[p, q]
-        else:
-            leaf_prim[j] = -(p - f) - 1
-    return leaf_prim, leaf_tri
-
-
-@nb.njit(**JIT)
 def _child_bounds(ib, first, end, box, cb, c):
     """box[c] and cb[c]: the bounds and centroid bounds of items first..end of ib (lo, hi, centroid rows)."""
     for a in range(3):
