@@ -38,8 +38,9 @@ def _child_bounds(ib, first, end, box, cb, c):
 
 
 @nb.njit(**JIT)
-def build_bvh2(lo, hi, max_leaf, defer):
-    """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays, the item order and the deferred nodes.
+def build_bvh2(lo, hi, items, max_leaf, defer):
+    """Binned-SAH binary BVH over the boxes lo/hi (., 3) of `items` (n,). Returns node arrays, the order (positions
+    into items) and the deferred nodes.
 
     Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
     Each node bins its items' centroids into N_BINS per axis (fewer, 2 per item, for nodes of under 8 items),
@@ -51,7 +52,7 @@ def build_bvh2(lo, hi, max_leaf, defer):
     With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in the
     returned (k, 3) array as (node, first, end), so build_wide_bvh can build those subtrees on other threads.
     """
-    n = lo.shape[0]
+    n = items.shape[0]
     cap = max(2 * n, 1)
     box = np.empty((cap, 6))
     left = np.full(cap, -1, np.int32)
@@ -65,8 +66,9 @@ def build_bvh2(lo, hi, max_leaf, defer):
         cb[0, a] = np.inf if a < 3 else -np.inf
         box[0, a] = np.inf if a < 3 else -np.inf
     for i in range(n):
+        item = items[i]
         for a in range(3):
-            lo_, hi_ = lo[i, a], hi[i, a]
+            lo_, hi_ = lo[item, a], hi[item, a]
             c = 0.5 * (lo_ + hi_)
             ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = lo_, hi_, c
             box[0, a] = min(box[0, a], lo_)
@@ -295,45 +297,65 @@ def collapse_bvh4(box, left, right, start, count):
 PARALLEL_BUILD = 100_000  # items from which build_wide_bvh builds subtrees on several threads
 
 
-def _build_subtree(lo, hi, max_leaf, items):
-    return build_bvh2(lo[items], hi[items], max_leaf, 0)
+@nb.njit(**JIT)
+def _place(sub_box, sub_left, sub_right, sub_start, sub_count, sub_order, items, node, off, first,
+           box, left, right, start, count, order):
+    """Write a subtree built over items (build_bvh2's arrays) into the whole tree's: its root at `node`, its node
+    i > 0 at off + i - 1, its items' order at order[first:]."""
+    for i in range(sub_box.shape[0]):
+        d = node if i == 0 else off + i - 1
+        for a in range(6):
+            box[d, a] = sub_box[i, a]
+        lc, rc = sub_left[i], sub_right[i]
+        left[d] = lc + off - 1 if lc > 0 else lc
+        right[d] = rc + off - 1 if rc > 0 else rc
+        start[d] = sub_start[i] + first
+        count[d] = sub_count[i]
+    for j in range(sub_order.shape[0]):
+        order[first + j] = items[sub_order[j]]
+
+
+def _build_subtree(lo, hi, max_leaf, items, node, off, first, tree):
+    """Build one deferred subtree and place it in tree (box, left, right, start, count, order), on a pool thread:
+    both kernels are nogil, and each subtree writes only its own rows."""
+    sb, sl, sr, ss, sc, so, _ = build_bvh2(lo, hi, items, max_leaf, 0)
+    _place(sb, sl, sr, ss, sc, so, items, node, off, first, *tree)
 
 
 def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring.
 
     Large inputs on several threads: the top of the tree is built until its open nodes hold at most n / (4
-    threads) items each; those subtrees are then built concurrently (build_bvh2 is nogil) and stitched in. Each
-    subtree sees its items in the order the serial build would, so the tree is the same as the serial one's.
+    threads) items each; those subtrees are then built concurrently and written straight into the whole tree's
+    arrays (a subtree of k items at rows reserved for 2k - 2 nodes; rows left unused are never linked, and
+    collapse_bvh4 follows links only). Each subtree sees its items in the order the serial build would, so the
+    tree is the same as the serial one's.
     """
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
     n = lo.shape[0]
     threads = nb.get_num_threads()
+    all_items = np.arange(n, dtype=np.int64)
     if n < PARALLEL_BUILD or threads < 2:
-        box, left, right, start, count, order, _ = build_bvh2(lo, hi, max_leaf, 0)
+        box, left, right, start, count, order, _ = build_bvh2(lo, hi, all_items, max_leaf, 0)
     else:
-        box, left, right, start, count, order, deferred = build_bvh2(lo, hi, max_leaf, n // (4 * threads))
+        top = build_bvh2(lo, hi, all_items, max_leaf, n // (4 * threads))
+        deferred = top[6]
+        m = len(top[0])
+        sizes = deferred[:, 2] - deferred[:, 1]
+        offsets = m + np.concatenate([[0], np.cumsum(2 * sizes - 2)])
+        total = int(offsets[-1])
+        box, start, count = np.empty((total, 6)), np.empty(total, np.int32), np.empty(total, np.int32)
+        left, right = np.empty(total, np.int32), np.empty(total, np.int32)
+        for whole, part in zip((box, left, right, start, count), top[:5], strict=True):
+            whole[:m] = part
+        order = top[5].copy()
+        tree = (box, left, right, start, count, order)
         pool = thread_pool(threads)
-        big_first = np.argsort(deferred[:, 1] - deferred[:, 2], kind="stable")
-        futures = {int(k): pool.submit(_build_subtree, lo, hi, max_leaf, order[deferred[k, 1]:deferred[k, 2]])
-                   for k in big_first}
-        parts = [box], [left], [right], [start], [count]
-        m = len(box)
-        for k in range(len(deferred)):
-            node, first, end = (int(x) for x in deferred[k])
-            sb, sl, sr, ss, sc, so, _ = futures[k].result()
-            # subtree node 0 takes the deferred node's place, the others are appended from m on
-            remap = lambda c, m=m: np.where(c > 0, c + (m - 1), c).astype(np.int32)  # noqa: E731
-            box[node], left[node], right[node] = sb[0], remap(sl[:1])[0], remap(sr[:1])[0]
-            start[node], count[node] = ss[0] + first, sc[0]
-            parts[0].append(sb[1:])
-            parts[1].append(remap(sl[1:]))
-            parts[2].append(remap(sr[1:]))
-            parts[3].append((ss[1:] + first).astype(np.int32))
-            parts[4].append(sc[1:])
-            order[first:end] = order[first:end][so]
-            m += len(sb) - 1
-        box, left, right, start, count = (np.concatenate(p) for p in parts)
+        futures = [pool.submit(_build_subtree, lo, hi, max_leaf, top[5][deferred[k, 1]:deferred[k, 2]].astype(np.int64),
+                               int(deferred[k, 0]), int(offsets[k]), int(deferred[k, 1]), tree)
+                   for k in np.argsort(-sizes, kind="stable")]  # the largest first
+        for f in futures:
+            f.result()
     bounds, child, depth = collapse_bvh4(box, left, right, start, count)
     return bounds, child, order, int(depth)
