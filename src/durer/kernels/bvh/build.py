@@ -352,9 +352,11 @@ def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
         order = top[5].copy()
         tree = (box, left, right, start, count, order)
         pool = thread_pool(threads)
-        futures = [pool.submit(_build_subtree, lo, hi, max_leaf, top[5][deferred[k, 1]:deferred[k, 2]].astype(np.int64),
-                               int(deferred[k, 0]), int(offsets[k]), int(deferred[k, 1]), tree)
-                   for k in np.argsort(-sizes, kind="stable")]  # the largest first
+        futures = []
+        for k in np.argsort(-sizes, kind="stable"):  # the largest first
+            node, first, end = (int(x) for x in deferred[k])
+            items = top[5][first:end].astype(np.int64)
+            futures.append(pool.submit(_build_subtree, lo, hi, max_leaf, items, node, int(offsets[k]), first, tree))
         for f in futures:
             f.result()
     bounds, child, depth = collapse_bvh4(box, left, right, start, count)
