@@ -17,7 +17,7 @@ import numpy as np
 from raycases import SHARED, camera_rays, load_mesh, random_rays
 
 from durer import RaycastingScene
-from durer.kernels.bvh.build import mesh_normals_bounds
+from durer.kernels.bvh.items import mesh_normals_bounds
 from durer.kernels.bvh.queries import crossings_two_level
 from durer.query import _durer_form, t_range
 

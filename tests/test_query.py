@@ -431,14 +431,15 @@ def test_float32_leaves_give_the_float64_leaves_answers_to_the_bit(sphere_mesh, 
     s.build()
     assert s._bvh.packed.blas.leaf_tri.dtype == np.float32
     narrow = _every_query(s, np.random.default_rng(3))
-    narrow_leaves = bvh.narrow_leaves
-    monkeypatch.setattr(bvh, "narrow_leaves", lambda leaf_tri: leaf_tri)
+    monkeypatch.setattr(bvh, "NARROW_LEAVES_FROM", 10**9)  # every tree keeps float64 leaves
     wide = RaycastingScene()
     wide.add_triangles(vertices, sphere_mesh.faces)
     wide.build()
     assert wide._bvh.packed.blas.leaf_tri.dtype == np.float64
     for got, ref in zip(narrow, _every_query(wide, np.random.default_rng(3)), strict=True):
         np.testing.assert_array_equal(got, ref)
-    monkeypatch.setattr(bvh, "narrow_leaves", narrow_leaves)
+    monkeypatch.setattr(bvh, "NARROW_LEAVES_FROM", 1)
     inexact = bvh.build_tree(np.full((1, 3, 3), 0.1), np.zeros((0, 3)), np.zeros((0, 3)))
     assert inexact.leaf_tri.dtype == np.float64  # 0.1 is no float32 value
+    inexact = bvh.Shape.indexed(np.array([[0.1, 0, 0], [0, 1, 0], [0, 0, 1]]), np.array([[0, 1, 2]]))
+    assert inexact.tree.leaf_tri.dtype == np.float64  # the same through a mesh's indices

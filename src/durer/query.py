@@ -113,7 +113,7 @@ class RaycastingScene:
             bad = f[(f < 0) | (f >= len(v))][0]
             raise ValueError(f"triangle index {bad} out of range for {len(v)} vertices")
         corners = None if vertex_normals is None else qn.corner_normals(vertex_normals, f, len(v))
-        self._shapes.append(Shape.mesh(v[f]))
+        self._shapes.append(Shape.indexed(v, f))
         if corners is not None:
             self._corners[len(self._shapes) - 1] = corners
         return self._add(len(self._shapes) - 1, transform)

@@ -21,9 +21,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..kernels.bvh.build import build_wide_bvh, item_boxes, leaf_items, mesh_normals_bounds
+from ..kernels.bvh.build import build_wide_bvh
 from ..kernels.bvh.instance_packets import any_hit_instances, closest_hit_instances
 from ..kernels.bvh.instances import rays_to_object
+from ..kernels.bvh.items import indexed_items, indexed_leaves, item_boxes, leaf_items, mesh_normals_bounds
 from ..kernels.bvh.layout import MAX_LEAF, leaf_codes, leaf_slots, stack_size_for
 from ..kernels.bvh.trace import any_hit_bvh, closest_hit_bvh
 from ..kernels.common import MISS, SPHERE, TRIANGLE
@@ -66,6 +67,16 @@ def build_tree(triangles: np.ndarray, sphere_lo: np.ndarray, sphere_hi: np.ndarr
     return WideBVH(bounds, child, leaf_prim, narrow_leaves(leaf_tri), depth)
 
 
+def build_indexed_tree(vertices: np.ndarray, faces: np.ndarray, max_leaf: int = MAX_LEAF):
+    """The tree of the mesh vertices[faces] ((V, 3) float, (F, 3) int), read through its indices (no (F, 3, 3)
+    copy), and its unit normals (F, 3) and bounds lo, hi: the same tree, normals and bounds as build_tree and
+    mesh_normals_bounds give for vertices[faces]."""
+    normals, lo, hi, box_lo, box_hi = indexed_items(vertices, faces)
+    bounds, child, order, depth = build_wide_bvh(box_lo, box_hi, max_leaf)
+    leaf_prim, leaf_tri = indexed_leaves(vertices, faces, order, len(order) >= NARROW_LEAVES_FROM)
+    return WideBVH(bounds, child, leaf_prim, leaf_tri, depth), normals, lo, hi
+
+
 # Trees with fewer leaf slots keep float64 leaves: theirs fit in a core's L2 cache (16,384 x 72 bytes = 1.2 MB), so
 # float32 would save no memory traffic, only cost every kernel a second compiled version (and the test suite
 # a minute and a half).
@@ -105,6 +116,19 @@ class Shape:
         tree = build_tree(tris, np.zeros((0, 3)), np.zeros((0, 3)))
         seconds = time.perf_counter() - start
         if not len(tris):
+            lo, hi = np.zeros(3), np.zeros(3)
+        return cls(tree, normals, np.zeros((0, 3)), np.zeros(0), lo, hi, seconds)
+
+    @classmethod
+    def indexed(cls, vertices: np.ndarray, faces: np.ndarray) -> Shape:
+        """A mesh from its vertices (V, 3) and triangle indices (F, 3) (valid ones), object space: the same shape
+        as mesh(vertices[faces]), built without that copy."""
+        v = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 3)
+        f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+        start = time.perf_counter()
+        tree, normals, lo, hi = build_indexed_tree(v, f)
+        seconds = time.perf_counter() - start
+        if not len(f):
             lo, hi = np.zeros(3), np.zeros(3)
         return cls(tree, normals, np.zeros((0, 3)), np.zeros(0), lo, hi, seconds)
 

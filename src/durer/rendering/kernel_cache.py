@@ -30,11 +30,11 @@ class Feature:
     seconds: int
 
 
-BVH = Feature("the BVH", ("kernels.bvh.build", "kernels.bvh.trace", "kernels.bvh.chunks", "kernels.bvh.packet",
-                               "kernels.bvh.single"), 15)
+BVH = Feature("the BVH", ("kernels.bvh.build", "kernels.bvh.items", "kernels.bvh.trace", "kernels.bvh.chunks",
+                          "kernels.bvh.packet", "kernels.bvh.single"), 15)
 # the path tracer builds the BVH but walks it in its own fused kernel (kernels/path/wavefront.py), never through
 # bvh.trace: a path-only install that asked for all of BVH announced a compile on every run
-BUILD = Feature("the BVH build", ("kernels.bvh.build",), 5)
+BUILD = Feature("the BVH build", ("kernels.bvh.build", "kernels.bvh.items"), 5)
 PATH = Feature("the path tracer", ("kernels.path.wavefront", "kernels.path.bsdf", "kernels.path.qmc"), 45)
 GRID = Feature("the uniform grid", ("kernels.course.grid",), 10)
 BRUTE = Feature("the every-object loop", ("kernels.brute",), 5)

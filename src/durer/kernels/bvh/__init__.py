@@ -7,7 +7,8 @@ rows LO_X .. HI_Z of NODE_FLOATS floats) and their codes: > 0 an inner node, 0 a
 (`leaf_code(start, count)` makes one, `leaf_range(code)` gives its slots). A leaf's slots index `leaf_prim`
 (triangle id, or -(sphere + 1)) and `leaf_tri` (the triangle's nine coordinates, float32 or float64, always widened
 to float64 before arithmetic).
-build.py makes it: a binned-SAH binary tree collapsed to 4 wide, subtrees on threads.
+build.py makes it: a binned-SAH binary tree collapsed to 4 wide, subtrees on threads (items.py: its triangle
+inputs and leaf-ordered outputs).
 
 **One ray** (single.py, simd.py). `ray_setup` computes the reciprocal direction and the watertight test's shear
 (intersect.ray_shear). From the root, `next_leaf`/`descend` test a node's four boxes at once

@@ -24,71 +24,23 @@ def _area(lx, ly, lz, hx, hy, hz):
 
 
 @nb.njit(**JIT)
-def item_boxes(tris, sphere_lo, sphere_hi):
-    """Boxes (n, 3) lo and hi of the triangles (F, 9) followed by the spheres' boxes (S, 3)."""
-    f = tris.shape[0]
-    n = f + sphere_lo.shape[0]
-    lo = np.empty((n, 3))
-    hi = np.empty((n, 3))
-    for i in range(f):
+def _child_bounds(ib, first, end, box, cb, c):
+    """box[c] and cb[c]: the bounds and centroid bounds of items first..end of ib (lo, hi, centroid rows)."""
+    for a in range(3):
+        box[c, a] = cb[c, a] = np.inf
+        box[c, 3 + a] = cb[c, 3 + a] = -np.inf
+    for j in range(first, end):
         for a in range(3):
-            x, y, z = tris[i, a], tris[i, 3 + a], tris[i, 6 + a]
-            lo[i, a] = min(x, y, z)
-            hi[i, a] = max(x, y, z)
-    for i in range(f, n):
-        for a in range(3):
-            lo[i, a] = sphere_lo[i - f, a]
-            hi[i, a] = sphere_hi[i - f, a]
-    return lo, hi
+            box[c, a] = min(box[c, a], ib[j, a])
+            box[c, 3 + a] = max(box[c, 3 + a], ib[j, 3 + a])
+            cb[c, a] = min(cb[c, a], ib[j, 6 + a])
+            cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
 
 
 @nb.njit(**JIT)
-def mesh_normals_bounds(tris):
-    """Unit normals (F, 3) of triangles (F, 3, 3) (zero for a degenerate one) and the mesh's bounds lo, hi (3,),
-    in one pass: NumPy's cross product, norm and two reductions over the (F, 3, 3) array took 0.5 s of the 1.1M
-    bunny's 2 s build. The arithmetic is NumPy's (a1 b2 - a2 b1; sqrt((x x + y y) + z z)), so the same bits."""
-    f = tris.shape[0]
-    normals = np.zeros((f, 3))
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
-    for i in range(f):
-        ax, ay, az = tris[i, 1, 0] - tris[i, 0, 0], tris[i, 1, 1] - tris[i, 0, 1], tris[i, 1, 2] - tris[i, 0, 2]
-        bx, by, bz = tris[i, 2, 0] - tris[i, 0, 0], tris[i, 2, 1] - tris[i, 0, 1], tris[i, 2, 2] - tris[i, 0, 2]
-        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        length = np.sqrt((nx * nx + ny * ny) + nz * nz)
-        if length > 0.0:
-            nx, ny, nz = nx / length, ny / length, nz / length
-        normals[i, 0], normals[i, 1], normals[i, 2] = nx, ny, nz
-        for c in range(3):
-            for a in range(3):
-                x = tris[i, c, a]
-                lo[a] = min(lo[a], x)
-                hi[a] = max(hi[a], x)
-    return normals, lo, hi
-
-
-@nb.njit(**JIT)
-def leaf_items(tris, order):
-    """leaf_prim (triangle id, or -(sphere + 1)) and leaf_tri (the triangle's 9 coordinates, zeros for a
-    sphere) in leaf order."""
-    f = tris.shape[0]
-    n = order.shape[0]
-    leaf_prim = np.empty(n, np.int32)
-    leaf_tri = np.zeros((n, 9))
-    for j in range(n):
-        p = order[j]
-        if p < f:
-            leaf_prim[j] = p
-            for q in range(9):
-                leaf_tri[j, q] = tris[p, q]
-        else:
-            leaf_prim[j] = -(p - f) - 1
-    return leaf_prim, leaf_tri
-
-
-@nb.njit(**JIT)
-def build_bvh2(lo, hi, max_leaf, defer):
-    """Binned-SAH binary BVH over boxes lo/hi (n, 3). Returns node arrays, the item order and the deferred nodes.
+def build_bvh2(lo, hi, items, max_leaf, defer):
+    """Binned-SAH binary BVH over the boxes lo/hi (., 3) of `items` (n,). Returns node arrays, the order (positions
+    into items) and the deferred nodes.
 
     Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
     Each node bins its items' centroids into N_BINS per axis (fewer, 2 per item, for nodes of under 8 items),
@@ -100,7 +52,7 @@ def build_bvh2(lo, hi, max_leaf, defer):
     With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in the
     returned (k, 3) array as (node, first, end), so build_wide_bvh can build those subtrees on other threads.
     """
-    n = lo.shape[0]
+    n = items.shape[0]
     cap = max(2 * n, 1)
     box = np.empty((cap, 6))
     left = np.full(cap, -1, np.int32)
@@ -114,8 +66,9 @@ def build_bvh2(lo, hi, max_leaf, defer):
         cb[0, a] = np.inf if a < 3 else -np.inf
         box[0, a] = np.inf if a < 3 else -np.inf
     for i in range(n):
+        item = items[i]
         for a in range(3):
-            lo_, hi_ = lo[i, a], hi[i, a]
+            lo_, hi_ = lo[item, a], hi[item, a]
             c = 0.5 * (lo_ + hi_)
             ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = lo_, hi_, c
             box[0, a] = min(box[0, a], lo_)
@@ -123,18 +76,18 @@ def build_bvh2(lo, hi, max_leaf, defer):
             cb[0, a] = min(cb[0, a], c)
             cb[0, 3 + a] = max(cb[0, 3 + a], c)
 
-    bin_box = np.empty((3, N_BINS, 6))
-    bin_cnt = np.zeros((3, N_BINS), np.int64)
+    bins = np.empty((3 * N_BINS, 6))         # per axis a and bin b, row a * N_BINS + b: lo xyz, hi xyz
+    bin_cnt = np.zeros(3 * N_BINS, np.int64)
     right_area = np.empty(N_BINS)
     right_cnt = np.empty(N_BINS, np.int64)
     scale = np.zeros(3)
-    tmp = np.empty(9)
     stack = np.empty((128, 3), np.int64)   # node, first, end; depth-first keeps the stack at the tree depth
     m = 1
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
     sp = 1
     deferred = np.empty((cap if defer > 0 else 0, 3), np.int64)
     n_def = 0
+    inf = np.inf
     while sp > 0:
         sp -= 1
         node, first, end = stack[sp, 0], stack[sp, 1], stack[sp, 2]
@@ -148,13 +101,12 @@ def build_bvh2(lo, hi, max_leaf, defer):
             n_def += 1
             continue
         nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
-        # bin centroids on all three axes in one pass
-        bin_cnt[:, :] = 0
         for a in range(3):
             for b in range(nbins):
-                for k in range(3):
-                    bin_box[a, b, k] = np.inf
-                    bin_box[a, b, 3 + k] = -np.inf
+                row = a * N_BINS + b
+                bin_cnt[row] = 0
+                bins[row, 0] = bins[row, 1] = bins[row, 2] = inf
+                bins[row, 3] = bins[row, 4] = bins[row, 5] = -inf
         n_axes = 0
         for a in range(3):
             ext = cb[node, 3 + a] - cb[node, a]
@@ -165,42 +117,49 @@ def build_bvh2(lo, hi, max_leaf, defer):
             if cnt <= 7:
                 continue  # coincident centroids: no plane separates them
         else:
+            # bin centroids on all three axes in one pass (an axis of no extent bins all in bin 0, unused)
+            c0, c1, c2 = cb[node, 0], cb[node, 1], cb[node, 2]
+            s0, s1, s2 = scale[0], scale[1], scale[2]
+            top = nbins - 1
             for j in range(first, end):
-                for a in range(3):
-                    if scale[a] == 0.0:
-                        continue
-                    b = int((ib[j, 6 + a] - cb[node, a]) * scale[a])
-                    if b >= nbins:
-                        b = nbins - 1
-                    bin_cnt[a, b] += 1
-                    for k in range(3):
-                        bin_box[a, b, k] = min(bin_box[a, b, k], ib[j, k])
-                        bin_box[a, b, 3 + k] = max(bin_box[a, b, 3 + k], ib[j, 3 + k])
+                x0, y0, z0, x1, y1, z1 = ib[j, 0], ib[j, 1], ib[j, 2], ib[j, 3], ib[j, 4], ib[j, 5]
+                b0 = min(int((ib[j, 6] - c0) * s0), top)
+                b1 = min(int((ib[j, 7] - c1) * s1), top) + N_BINS
+                b2 = min(int((ib[j, 8] - c2) * s2), top) + 2 * N_BINS
+                for row in (b0, b1, b2):
+                    bin_cnt[row] += 1
+                    bins[row, 0] = min(bins[row, 0], x0)
+                    bins[row, 1] = min(bins[row, 1], y0)
+                    bins[row, 2] = min(bins[row, 2], z0)
+                    bins[row, 3] = max(bins[row, 3], x1)
+                    bins[row, 4] = max(bins[row, 4], y1)
+                    bins[row, 5] = max(bins[row, 5], z1)
         # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the nbins-1 planes
-        best_cost = np.inf
+        best_cost = inf
         best_axis = -1
         best_bin = 0
         for a in range(3):
             if scale[a] == 0.0:
                 continue
-            rl0 = rl1 = rl2 = np.inf
-            rh0 = rh1 = rh2 = -np.inf
+            base = a * N_BINS
+            rl0 = rl1 = rl2 = inf
+            rh0 = rh1 = rh2 = -inf
             rc = 0
             for b in range(nbins - 1, 0, -1):
-                bb = bin_box[a, b]
+                bb = bins[base + b]
                 rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
                 rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
-                rc += bin_cnt[a, b]
+                rc += bin_cnt[base + b]
                 right_area[b] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
                 right_cnt[b] = rc
-            ll0 = ll1 = ll2 = np.inf
-            lh0 = lh1 = lh2 = -np.inf
+            ll0 = ll1 = ll2 = inf
+            lh0 = lh1 = lh2 = -inf
             lc = 0
             for b in range(nbins - 1):
-                bb = bin_box[a, b]
+                bb = bins[base + b]
                 ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
                 lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
-                lc += bin_cnt[a, b]
+                lc += bin_cnt[base + b]
                 if lc == 0 or right_cnt[b + 1] == 0:
                     continue
                 cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[b + 1] * right_cnt[b + 1]
@@ -214,48 +173,48 @@ def build_bvh2(lo, hi, max_leaf, defer):
         l, r = m, m + 1
         m += 2
         left[node], right[node] = l, r
-        for a in range(3):
-            box[l, a] = box[r, a] = cb[l, a] = cb[r, a] = np.inf
-            box[l, 3 + a] = box[r, 3 + a] = cb[l, 3 + a] = cb[r, 3 + a] = -np.inf
         if best_axis < 0:
             mid = first + cnt // 2  # too many coincident centroids to keep together: split the list in half
+            _child_bounds(ib, first, mid, box, cb, l)
+            _child_bounds(ib, mid, end, box, cb, r)
         else:
-            # partition the items by bin; the children's boxes are the unions of their bins
+            # partition the items by bin (in this order: a later halving split and the leaves' order follow it);
+            # the children's boxes and centroid bounds grow in registers as each item is placed
+            al0 = al1 = al2 = acl0 = acl1 = acl2 = inf
+            ah0 = ah1 = ah2 = ach0 = ach1 = ach2 = -inf
+            bl0 = bl1 = bl2 = bcl0 = bcl1 = bcl2 = inf
+            bh0 = bh1 = bh2 = bch0 = bch1 = bch2 = -inf
             a = best_axis
             i = first
             k = end - 1
             lo_a = cb[node, a]
             sc = scale[a]
+            top = nbins - 1
             while i <= k:
-                b = int((ib[i, 6 + a] - lo_a) * sc)
-                if b >= nbins:
-                    b = nbins - 1
-                c = l if b <= best_bin else r
-                for q in range(3):
-                    box[c, q] = min(box[c, q], ib[i, q])
-                    box[c, 3 + q] = max(box[c, 3 + q], ib[i, 3 + q])
-                    cb[c, q] = min(cb[c, q], ib[i, 6 + q])
-                    cb[c, 3 + q] = max(cb[c, 3 + q], ib[i, 6 + q])
-                if b <= best_bin:
+                x0, y0, z0, x1, y1, z1 = ib[i, 0], ib[i, 1], ib[i, 2], ib[i, 3], ib[i, 4], ib[i, 5]
+                cx, cy, cz = ib[i, 6], ib[i, 7], ib[i, 8]
+                if min(int((ib[i, 6 + a] - lo_a) * sc), top) <= best_bin:
+                    al0, al1, al2 = min(al0, x0), min(al1, y0), min(al2, z0)
+                    ah0, ah1, ah2 = max(ah0, x1), max(ah1, y1), max(ah2, z1)
+                    acl0, acl1, acl2 = min(acl0, cx), min(acl1, cy), min(acl2, cz)
+                    ach0, ach1, ach2 = max(ach0, cx), max(ach1, cy), max(ach2, cz)
                     i += 1
                 else:
-                    for q in range(9):
-                        tmp[q] = ib[i, q]
+                    bl0, bl1, bl2 = min(bl0, x0), min(bl1, y0), min(bl2, z0)
+                    bh0, bh1, bh2 = max(bh0, x1), max(bh1, y1), max(bh2, z1)
+                    bcl0, bcl1, bcl2 = min(bcl0, cx), min(bcl1, cy), min(bcl2, cz)
+                    bch0, bch1, bch2 = max(bch0, cx), max(bch1, cy), max(bch2, cz)
                     for q in range(9):
                         ib[i, q] = ib[k, q]
-                    for q in range(9):
-                        ib[k, q] = tmp[q]
+                    ib[k, 0], ib[k, 1], ib[k, 2], ib[k, 3], ib[k, 4], ib[k, 5] = x0, y0, z0, x1, y1, z1
+                    ib[k, 6], ib[k, 7], ib[k, 8] = cx, cy, cz
                     order[i], order[k] = order[k], order[i]
                     k -= 1
             mid = i
-        if best_axis < 0:
-            for j in range(first, end):
-                c = l if j < mid else r
-                for a in range(3):
-                    box[c, a] = min(box[c, a], ib[j, a])
-                    box[c, 3 + a] = max(box[c, 3 + a], ib[j, 3 + a])
-                    cb[c, a] = min(cb[c, a], ib[j, 6 + a])
-                    cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
+            box[l, 0], box[l, 1], box[l, 2], box[l, 3], box[l, 4], box[l, 5] = al0, al1, al2, ah0, ah1, ah2
+            cb[l, 0], cb[l, 1], cb[l, 2], cb[l, 3], cb[l, 4], cb[l, 5] = acl0, acl1, acl2, ach0, ach1, ach2
+            box[r, 0], box[r, 1], box[r, 2], box[r, 3], box[r, 4], box[r, 5] = bl0, bl1, bl2, bh0, bh1, bh2
+            cb[r, 0], cb[r, 1], cb[r, 2], cb[r, 3], cb[r, 4], cb[r, 5] = bcl0, bcl1, bcl2, bch0, bch1, bch2
         if sp + 2 > stack.shape[0]:
             grown = np.empty((2 * stack.shape[0], 3), np.int64)
             for q in range(sp):  # element by element: an array assignment compiles ~5 s of error formatting
@@ -338,45 +297,67 @@ def collapse_bvh4(box, left, right, start, count):
 PARALLEL_BUILD = 100_000  # items from which build_wide_bvh builds subtrees on several threads
 
 
-def _build_subtree(lo, hi, max_leaf, items):
-    return build_bvh2(lo[items], hi[items], max_leaf, 0)
+@nb.njit(**JIT)
+def _place(sub_box, sub_left, sub_right, sub_start, sub_count, sub_order, items, node, off, first,
+           box, left, right, start, count, order):
+    """Write a subtree built over items (build_bvh2's arrays) into the whole tree's: its root at `node`, its node
+    i > 0 at off + i - 1, its items' order at order[first:]."""
+    for i in range(sub_box.shape[0]):
+        d = node if i == 0 else off + i - 1
+        for a in range(6):
+            box[d, a] = sub_box[i, a]
+        lc, rc = sub_left[i], sub_right[i]
+        left[d] = lc + off - 1 if lc > 0 else lc
+        right[d] = rc + off - 1 if rc > 0 else rc
+        start[d] = sub_start[i] + first
+        count[d] = sub_count[i]
+    for j in range(sub_order.shape[0]):
+        order[first + j] = items[sub_order[j]]
+
+
+def _build_subtree(lo, hi, max_leaf, items, node, off, first, tree):
+    """Build one deferred subtree and place it in tree (box, left, right, start, count, order), on a pool thread:
+    both kernels are nogil, and each subtree writes only its own rows."""
+    sb, sl, sr, ss, sc, so, _ = build_bvh2(lo, hi, items, max_leaf, 0)
+    _place(sb, sl, sr, ss, sc, so, items, node, off, first, *tree)
 
 
 def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring.
 
     Large inputs on several threads: the top of the tree is built until its open nodes hold at most n / (4
-    threads) items each; those subtrees are then built concurrently (build_bvh2 is nogil) and stitched in. Each
-    subtree sees its items in the order the serial build would, so the tree is the same as the serial one's.
+    threads) items each; those subtrees are then built concurrently and written straight into the whole tree's
+    arrays (a subtree of k items at rows reserved for 2k - 2 nodes; rows left unused are never linked, and
+    collapse_bvh4 follows links only). Each subtree sees its items in the order the serial build would, so the
+    tree is the same as the serial one's.
     """
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
     n = lo.shape[0]
     threads = nb.get_num_threads()
+    all_items = np.arange(n, dtype=np.int64)
     if n < PARALLEL_BUILD or threads < 2:
-        box, left, right, start, count, order, _ = build_bvh2(lo, hi, max_leaf, 0)
+        box, left, right, start, count, order, _ = build_bvh2(lo, hi, all_items, max_leaf, 0)
     else:
-        box, left, right, start, count, order, deferred = build_bvh2(lo, hi, max_leaf, n // (4 * threads))
+        top = build_bvh2(lo, hi, all_items, max_leaf, n // (4 * threads))
+        deferred = top[6]
+        m = len(top[0])
+        sizes = deferred[:, 2] - deferred[:, 1]
+        offsets = m + np.concatenate([[0], np.cumsum(2 * sizes - 2)])
+        total = int(offsets[-1])
+        box, start, count = np.empty((total, 6)), np.empty(total, np.int32), np.empty(total, np.int32)
+        left, right = np.empty(total, np.int32), np.empty(total, np.int32)
+        for whole, part in zip((box, left, right, start, count), top[:5], strict=True):
+            whole[:m] = part
+        order = top[5].copy()
+        tree = (box, left, right, start, count, order)
         pool = thread_pool(threads)
-        big_first = np.argsort(deferred[:, 1] - deferred[:, 2], kind="stable")
-        futures = {int(k): pool.submit(_build_subtree, lo, hi, max_leaf, order[deferred[k, 1]:deferred[k, 2]])
-                   for k in big_first}
-        parts = [box], [left], [right], [start], [count]
-        m = len(box)
-        for k in range(len(deferred)):
+        futures = []
+        for k in np.argsort(-sizes, kind="stable"):  # the largest first
             node, first, end = (int(x) for x in deferred[k])
-            sb, sl, sr, ss, sc, so, _ = futures[k].result()
-            # subtree node 0 takes the deferred node's place, the others are appended from m on
-            remap = lambda c, m=m: np.where(c > 0, c + (m - 1), c).astype(np.int32)  # noqa: E731
-            box[node], left[node], right[node] = sb[0], remap(sl[:1])[0], remap(sr[:1])[0]
-            start[node], count[node] = ss[0] + first, sc[0]
-            parts[0].append(sb[1:])
-            parts[1].append(remap(sl[1:]))
-            parts[2].append(remap(sr[1:]))
-            parts[3].append((ss[1:] + first).astype(np.int32))
-            parts[4].append(sc[1:])
-            order[first:end] = order[first:end][so]
-            m += len(sb) - 1
-        box, left, right, start, count = (np.concatenate(p) for p in parts)
+            items = top[5][first:end].astype(np.int64)
+            futures.append(pool.submit(_build_subtree, lo, hi, max_leaf, items, node, int(offsets[k]), first, tree))
+        for f in futures:
+            f.result()
     bounds, child, depth = collapse_bvh4(box, left, right, start, count)
     return bounds, child, order, int(depth)

@@ -1,0 +1,152 @@
+"""What the BVH build takes and gives over triangles (Numba): the items' boxes, the mesh's normals and bounds, and
+the leaf-ordered vertices the traversal reads (float32 where that is exact).
+
+A mesh given as vertices (V, 3) and indices (F, 3) (RaycastingScene.add_triangles) is read through its indices:
+no (F, 3, 3) copy of its triangles is made (80 MB and 0.07 s at 1.1M triangles).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ..common import JIT
+
+
+@nb.njit(**JIT)
+def item_boxes(tris, sphere_lo, sphere_hi):
+    """Boxes (n, 3) lo and hi of the triangles (F, 9) followed by the spheres' boxes (S, 3)."""
+    f = tris.shape[0]
+    n = f + sphere_lo.shape[0]
+    lo = np.empty((n, 3))
+    hi = np.empty((n, 3))
+    for i in range(f):
+        for a in range(3):
+            x, y, z = tris[i, a], tris[i, 3 + a], tris[i, 6 + a]
+            lo[i, a] = min(x, y, z)
+            hi[i, a] = max(x, y, z)
+    for i in range(f, n):
+        for a in range(3):
+            lo[i, a] = sphere_lo[i - f, a]
+            hi[i, a] = sphere_hi[i - f, a]
+    return lo, hi
+
+
+@nb.njit(**JIT)
+def mesh_normals_bounds(tris):
+    """Unit normals (F, 3) of triangles (F, 3, 3) (zero for a degenerate one) and the mesh's bounds lo, hi (3,),
+    in one pass: NumPy's cross product, norm and two reductions over the (F, 3, 3) array took 0.5 s of the 1.1M
+    bunny's 2 s build. The arithmetic is NumPy's (a1 b2 - a2 b1; sqrt((x x + y y) + z z)), so the same bits."""
+    f = tris.shape[0]
+    normals = np.zeros((f, 3))
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for i in range(f):
+        ax, ay, az = tris[i, 1, 0] - tris[i, 0, 0], tris[i, 1, 1] - tris[i, 0, 1], tris[i, 1, 2] - tris[i, 0, 2]
+        bx, by, bz = tris[i, 2, 0] - tris[i, 0, 0], tris[i, 2, 1] - tris[i, 0, 1], tris[i, 2, 2] - tris[i, 0, 2]
+        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        length = np.sqrt((nx * nx + ny * ny) + nz * nz)
+        if length > 0.0:
+            nx, ny, nz = nx / length, ny / length, nz / length
+        normals[i, 0], normals[i, 1], normals[i, 2] = nx, ny, nz
+        for c in range(3):
+            for a in range(3):
+                x = tris[i, c, a]
+                lo[a] = min(lo[a], x)
+                hi[a] = max(hi[a], x)
+    return normals, lo, hi
+
+
+@nb.njit(**JIT)
+def leaf_items(tris, order):
+    """leaf_prim (triangle id, or -(sphere + 1)) and leaf_tri (the triangle's 9 coordinates, zeros for a
+    sphere) in leaf order."""
+    f = tris.shape[0]
+    n = order.shape[0]
+    leaf_prim = np.empty(n, np.int32)
+    leaf_tri = np.zeros((n, 9))
+    for j in range(n):
+        p = order[j]
+        if p < f:
+            leaf_prim[j] = p
+            for q in range(9):
+                leaf_tri[j, q] = tris[p, q]
+        else:
+            leaf_prim[j] = -(p - f) - 1
+    return leaf_prim, leaf_tri
+
+
+@nb.njit(**JIT)
+def indexed_items(v, f):
+    """For the triangles v[f] (vertices (V, 3) float32 or float64, indices (F, 3)): unit normals (F, 3), the
+    mesh's bounds lo, hi (3,) and each triangle's box lo, hi (F, 3), in one pass over the indices. The
+    arithmetic is mesh_normals_bounds' and item_boxes' on float64(v[f]), so the same bits."""
+    n = f.shape[0]
+    normals = np.zeros((n, 3))
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    box_lo = np.empty((n, 3))
+    box_hi = np.empty((n, 3))
+    p = np.empty((3, 3))
+    for i in range(n):
+        for c in range(3):
+            k = f[i, c]
+            for a in range(3):
+                p[c, a] = np.float64(v[k, a])
+        ax, ay, az = p[1, 0] - p[0, 0], p[1, 1] - p[0, 1], p[1, 2] - p[0, 2]
+        bx, by, bz = p[2, 0] - p[0, 0], p[2, 1] - p[0, 1], p[2, 2] - p[0, 2]
+        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        length = np.sqrt((nx * nx + ny * ny) + nz * nz)
+        if length > 0.0:
+            nx, ny, nz = nx / length, ny / length, nz / length
+        normals[i, 0], normals[i, 1], normals[i, 2] = nx, ny, nz
+        for a in range(3):
+            x, y, z = p[0, a], p[1, a], p[2, a]
+            b_lo, b_hi = min(x, y, z), max(x, y, z)
+            box_lo[i, a], box_hi[i, a] = b_lo, b_hi
+            lo[a] = min(lo[a], b_lo)
+            hi[a] = max(hi[a], b_hi)
+    return normals, lo, hi, box_lo, box_hi
+
+
+@nb.njit(**JIT)
+def _narrow_gather(v, f, order, out):
+    """out[j] = float32 of the vertices of triangle order[j] (rows of v through f); False if one is no
+    float32 value (the caller then keeps float64 leaves)."""
+    exact = True
+    for j in range(order.shape[0]):
+        t = order[j]
+        for c in range(3):
+            k = f[t, c]
+            for a in range(3):
+                x = np.float64(v[k, a])
+                y = np.float32(x)
+                out[j, 3 * c + a] = y
+                if np.float64(y) != x:
+                    exact = False
+    return exact
+
+
+@nb.njit(**JIT)
+def _wide_gather(v, f, order, out):
+    """out[j] = the vertices of triangle order[j] (float64), through f."""
+    for j in range(order.shape[0]):
+        t = order[j]
+        for c in range(3):
+            k = f[t, c]
+            for a in range(3):
+                out[j, 3 * c + a] = v[k, a]
+
+
+def indexed_leaves(v: np.ndarray, f: np.ndarray, order: np.ndarray, narrow: bool) -> tuple[np.ndarray, np.ndarray]:
+    """leaf_prim and leaf_tri (M, 9) of a mesh v[f] in leaf order (no spheres); float32 when `narrow` and every
+    vertex read is a float32 value (the traversal then reads half the bytes and answers the same), else
+    float64. One gather, no float64 copy on the way to float32."""
+    leaf_prim = order.astype(np.int32)
+    if narrow:
+        out = np.empty((len(order), 9), np.float32)
+        if _narrow_gather(v, f, order, out):
+            return leaf_prim, out
+    out64 = np.empty((len(order), 9))
+    _wide_gather(v, f, order, out64)
+    return leaf_prim, out64

@@ -1,0 +1,130 @@
+"""The SAH build (kernels/bvh/build.py) and its triangle inputs (kernels/bvh/items.py): tree invariants on random
+boxes (every item in exactly one leaf, every box containing what it holds, the depth it reports), the threaded
+build giving the serial tree, a mesh built through its indices giving the tree of its triangles, and that tree's
+closest hits against brute force."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from durer.accel.brute import BruteForce
+from durer.accel.bvh import Shape, TwoLevelBVH
+from durer.accel.compile import compile_scene
+from durer.kernels.bvh import build
+from durer.kernels.bvh.layout import MAX_LEAF, leaf_slots
+from durer.scene.graph import Group, Scene
+from durer.scene.shapes import TriangleMesh
+
+
+def _boxes(rng: np.random.Generator, n: int, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """n random boxes: scattered, many sharing one centroid (the build's halving split), or flat in z."""
+    c = rng.uniform(-5, 5, (n, 3))
+    if kind == "coincident":
+        c[: n // 2] = 1.0
+    elif kind == "flat":
+        c[:, 2] = 0.0
+    half = rng.uniform(0.0, 0.5, (n, 3))
+    if kind == "flat":
+        half[:, 2] = 0.0
+    return c - half, c + half
+
+
+def _check_tree(lo, hi, bounds, child, order, depth):
+    """Every item in exactly one leaf; each lane's (float32) box contains its leaf's items or its child's lanes;
+    depth is the tree's depth; leaves hold at most 7 items (the leaf code's limit)."""
+    n = len(lo)
+    assert sorted(order.tolist()) == list(range(n))
+    first, count = leaf_slots(np.where(child < 0, child, -1).astype(np.int64))
+    leaf = child < 0
+    seen = np.zeros(n, np.int64)
+    for s, c in zip(first[leaf], count[leaf], strict=True):
+        seen[s:s + c] += 1
+    np.testing.assert_array_equal(seen, np.ones(n, np.int64))  # every item in exactly one leaf
+    assert count[leaf].max(initial=0) <= 7
+    b = bounds.astype(np.float64)
+    for node, lane in zip(*np.nonzero(child != 0), strict=True):
+        box_lo, box_hi = b[node, :3, lane], b[node, 3:, lane]
+        code = child[node, lane]
+        if code < 0:
+            items = order[first[node, lane]:first[node, lane] + count[node, lane]]
+            assert np.all(box_lo <= lo[items]) and np.all(hi[items] <= box_hi)
+        else:
+            sub = b[code][:, child[code] != 0]
+            assert np.all(box_lo[:, None] <= sub[:3]) and np.all(sub[3:] <= box_hi[:, None])
+    levels, frontier = 0, [0]
+    while frontier:
+        levels += 1
+        frontier = [int(c) for node in frontier for c in child[node] if c > 0]
+    assert depth == levels
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 600), kind=st.sampled_from(["scattered", "coincident", "flat"]),
+       max_leaf=st.sampled_from([1, MAX_LEAF]))
+def test_every_item_in_one_leaf_and_boxes_contain_their_contents(seed, n, kind, max_leaf):
+    lo, hi = _boxes(np.random.default_rng(seed), n, kind)
+    bounds, child, order, depth = build.build_wide_bvh(lo, hi, max_leaf)
+    if n:
+        _check_tree(lo, hi, bounds, child, order, depth)
+    else:
+        assert np.all(np.isinf(bounds)) and not child.any()
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
+@pytest.mark.parametrize("kind", ["scattered", "coincident", "flat"])
+def test_threaded_build_gives_the_serial_tree(monkeypatch, kind):
+    """Subtrees built on other threads and stitched in: the same arrays as the one-thread build."""
+    lo, hi = _boxes(np.random.default_rng(7), 5000, kind)
+    serial = build.build_wide_bvh(lo, hi)
+    monkeypatch.setattr(build, "PARALLEL_BUILD", 1000)
+    threaded = build.build_wide_bvh(lo, hi)
+    for a, b in zip(serial, threaded, strict=True):
+        np.testing.assert_array_equal(a, b)
+    _check_tree(lo, hi, *threaded)
+
+
+def _mesh(rng: np.random.Generator, n_vert: int, n_tri: int, float32: bool) -> tuple[np.ndarray, np.ndarray]:
+    v = rng.uniform(-2, 2, (n_vert, 3))
+    if float32:
+        v = v.astype(np.float32).astype(np.float64)
+    return v, rng.integers(0, n_vert, (n_tri, 3))
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(0, 400), float32=st.booleans(), narrow=st.booleans())
+def test_a_mesh_built_through_its_indices_is_the_mesh_of_its_triangles(seed, n_tri, float32, narrow):
+    """Shape.indexed(v, f) (no (F, 3, 3) copy) gives Shape.mesh(v[f])'s tree, leaves (float32 exactly when
+    every vertex is one and the tree is large), normals and bounds, to the bit."""
+    import durer.accel.bvh as bvh
+
+    v, f = _mesh(np.random.default_rng(seed), max(3, n_tri // 2), n_tri, float32)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(bvh, "NARROW_LEAVES_FROM", 1 if narrow else 10**9)
+        a, b = Shape.mesh(v[f]), Shape.indexed(v, f)
+    for name in ("bounds", "child", "leaf_prim", "leaf_tri"):
+        x, y = getattr(a.tree, name), getattr(b.tree, name)
+        assert x.dtype == y.dtype and np.array_equal(x, y), name
+    assert a.tree.depth == b.tree.depth
+    assert b.tree.leaf_tri.dtype == (np.float32 if narrow and float32 and n_tri else np.float64)
+    for name in ("normals", "lo", "hi"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(1, 300))
+def test_closest_hits_through_the_indexed_tree_equal_brute_force(seed, n_tri):
+    rng = np.random.default_rng(seed)
+    v, f = _mesh(rng, n_tri, n_tri, True)
+    tree = TwoLevelBVH([Shape.indexed(v, f)], [(0, np.eye(4))])
+    brute = BruteForce(compile_scene(Scene(camera=None, group=Group([TriangleMesh(v, f)]))))
+    o = rng.uniform(-4, 4, (400, 3))
+    d = rng.uniform(-2, 2, (400, 3)) - o
+    t, _, kind, prim, _, _ = tree.closest_hit(o, d, np.full(400, 1e-6), np.full(400, np.inf))
+    ref = brute.closest_hit(o, d, t_min=1e-6)
+    np.testing.assert_array_equal(kind, ref.kind)
+    np.testing.assert_array_equal(t, ref.t)  # the same watertight test: t to the bit
+    assert np.all((prim == ref.prim) | (t == ref.t))
