@@ -29,7 +29,9 @@ samples with the box filter, 226 with a radius-1 tent or gaussian, 56 with radiu
 otherwise (progressive refinement: Job.refinement) gives the same image up to the rounding of the sums'
 association. run() is the local driver: the canonical units on threads, added in order.
 Every sample is keyed by (pixel, sample index) (film.tile_offsets, the path tracer's random streams), so a halo
-pixel's samples are the same in every unit that traces them.
+pixel's samples are the same in every unit that traces them. A denoised render (options.denoise) films the
+denoiser's inputs with a one-pixel box and the part of the colour it adds back with the scene's filter
+(_gather_denoised, rendering/denoise.py).
 """
 
 from __future__ import annotations
