@@ -22,13 +22,15 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 import durer
 from durer.errors import SceneError
-from durer.rendering.denoise import PIXEL_FILTER, QUALITY, SPLIT, clean_features, denoise, split_part
+from durer.rendering.denoise import PIXEL_FILTER, QUALITY, clean_features, denoise, split_part
+from durer.rendering.renderer import denoise_result, make_context, render_in, resolve
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "out"
@@ -38,10 +40,10 @@ SHARED = next((p / "shared" / "scenes" / "mitsuba" for p in (ROOT.parent, ROOT.p
 CORNELL = ROOT / "examples" / "cornell_box.xml"
 DENOISED_SPP = (4, 16, 64)
 NOISY_SPP = (16, 32, 64, 128, 256, 512, 1024)
-# the ways of keeping the directly seen emission out of OIDN's input (rendering/denoise.SPLIT), all measured on the
-# same renders: nothing kept out, surface emitters, surface emitters and the environment
-SPLITS = {"none": (), "area": ("emission",), "all": ("emission", "environment")}
-DEFAULT_SPLIT = next(k for k, v in SPLITS.items() if v == SPLIT)
+# the ways of filming a denoised render, both measured on the same samples: "box", the previous round's (every
+# output box-filtered, the directly seen emission kept out of OIDN's input and added back); "scene", durer's
+# (rendering/denoise.py: OIDN's box-filtered output filtered by the scene's filter, the emission filmed by it)
+WAYS = ("box", "scene")
 
 
 def scene_set() -> tuple[list[Path], list[str]]:
@@ -98,33 +100,45 @@ def rmse(a: np.ndarray, b: np.ndarray, keep: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a[keep] - b[keep]) ** 2)))
 
 
+def denoised_renders(scene: durer.Scene, wh: tuple[int, int], n: int, seed: int, qualities) -> dict:
+    """{(quality, way): denoised colour} of one set of samples (WAYS), and {quality: OIDN's seconds} of durer's."""
+    out, seconds = {}, {}
+    box = durer.render(scene, *wh, samples=n, seed=seed, aovs=True, **PIXEL_FILTER)
+    clean = clean_features(scene.materials, path=True)
+    width, height, options = resolve(scene, *wh, samples=n, seed=seed, denoise=True)
+    ctx = make_context(scene, options)
+    raw = render_in(ctx, width, height)
+    for q in qualities:
+        out[q, "box"] = denoise(box.color, box.albedo, box.shading_normals, clean=clean, quality=q,
+                                direct=split_part(box.aovs)).color
+        done = denoise_result(replace(raw), ctx.bundle.materials, replace(options, denoise_quality=q))
+        out[q, "scene"], seconds[q] = done.color, done.denoise_seconds
+    return dict(images=out, seconds=seconds)
+
+
 def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualities, seeds: int) -> dict:
-    """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {split: {spp: e}}}
-    (the same render with features and denoise=True's box filter, denoised at each OIDN quality and each way of
-    SPLITS), each the mean over `seeds` seeds (one above 128 spp: one run's error at low spp is set by a few
-    firefly pixels), and OIDN's mean seconds (durer's split)."""
+    """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {way: {spp: e}}}
+    (WAYS, on the same samples, at each OIDN quality), each the mean over `seeds` seeds (one above 128 spp: one
+    run's error at low spp is set by a few firefly pixels), and OIDN's mean seconds (durer's way)."""
     scene = durer.load(path)
     ref = reference(path, scene, res, ref_spp)
     keep = ~emitter_pixels(path, scene, res)
     wh = size(scene, res)
     noisy = {n: float(np.mean([rmse(durer.render(scene, *wh, samples=n, seed=k).color, ref, keep)
                                for k in range(1, 1 + (seeds if n <= 128 else 1))])) for n in noisy_spp}
-    clean = clean_features(scene.materials, path=True)
-    denoised = {q: {w: {n: [] for n in denoised_spp} for w in SPLITS} for q in qualities}
+    denoised = {q: {w: {n: [] for n in denoised_spp} for w in WAYS} for q in qualities}
     seconds = {q: [] for q in qualities}
     for n in denoised_spp:
         for k in range(1, 1 + seeds):
-            r = durer.render(scene, *wh, samples=n, seed=k, aovs=True, **PIXEL_FILTER)  # as denoise=True renders
-            for q in qualities:
-                for way, split in SPLITS.items():
-                    d = denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q,
-                                direct=split_part(r.aovs, split))
-                    denoised[q][way][n].append(rmse(d.color, ref, keep))
-                    if way == DEFAULT_SPLIT:
-                        seconds[q].append(d.seconds)
+            d = denoised_renders(scene, wh, n, k, qualities)
+            for (q, way), image in d["images"].items():
+                denoised[q][way][n].append(rmse(image, ref, keep))
+            for q, t in d["seconds"].items():
+                seconds[q].append(t)
     return dict(noisy=noisy, denoised={q: {w: {n: float(np.mean(v)) for n, v in e.items()} for w, e in ways.items()}
                                        for q, ways in denoised.items()},
-                seconds={q: float(np.mean(v)) for q, v in seconds.items()}, clean=clean)
+                seconds={q: float(np.mean(v)) for q, v in seconds.items()},
+                clean=clean_features(scene.materials, path=True), filter=scene.render_defaults.get("filter", "box"))
 
 
 def oidn_threads(r, quality: str, threads: int) -> None:
@@ -192,12 +206,14 @@ def set_timing(paths: list[Path], qualities, res: int = 512, spp: int = 16) -> N
         cpu = time.process_time()
         durer.render(scene, *wh, samples=spp)
         render = time.process_time() - cpu
-        r = durer.render(scene, *wh, samples=spp, aovs=True, **PIXEL_FILTER)
+        width, height, options = resolve(scene, *wh, samples=spp, denoise=True)
+        ctx = make_context(scene, options)
+        r = render_in(ctx, width, height)
         clean = clean_features(scene.materials, path=True)
         cells = []
         for q in qualities:
             cpu = time.process_time()
-            denoise(r.color, r.albedo, r.shading_normals, clean=clean, quality=q)
+            denoise_result(replace(r), ctx.bundle.materials, replace(options, denoise_quality=q))
             oidn = time.process_time() - cpu
             if path != CORNELL:
                 shares[q].append(oidn / render)
@@ -258,15 +274,15 @@ def main() -> None:
         paths = [p for t in a.only for p in paths if t in str(p)]
     if not a.timing_only:
         print(f"# {res} px on the longer side; reference {ref_spp} spp (durer, other seeds); RMSE without the "
-              f"emitters' own pixels, mean over {a.seeds} seeds up to 128 spp; denoised with durer's split "
-              f"({DEFAULT_SPLIT}); ratios: denoised 16 spp / noisy 128 spp, emission split {' / '.join(SPLITS)}")
+              f"emitters' own pixels, mean over {a.seeds} seeds up to 128 spp; denoised as durer does (scene); "
+              f"ratios: denoised 16 spp / noisy 128 spp, filmed {' / '.join(WAYS)}")
         for line in skipped:
             print(f"# not loaded: {line}")
         head = " | ".join([f"noisy {n}" for n in noisy_spp] + [f"{q} {n}" for q in qualities for n in denoised_spp])
-        ratio_head = " | ".join(f"{q} {w}" for q in qualities for w in SPLITS)
+        ratio_head = " | ".join(f"{q} {w}" for q in qualities for w in WAYS)
         print(f"\n| scene | {head} | {ratio_head} | OIDN s ({', '.join(qualities)}) |")
-        print("|---" * (len(noisy_spp) + len(qualities) * (len(denoised_spp) + len(SPLITS)) + 2) + "|")
-    ratios = {(q, w): {} for q in qualities for w in SPLITS}
+        print("|---" * (len(noisy_spp) + len(qualities) * (len(denoised_spp) + len(WAYS)) + 2) + "|")
+    ratios = {(q, w): {} for q in qualities for w in WAYS}
     for path in paths:
         e = errors(path, res, ref_spp, noisy_spp, denoised_spp, qualities, a.seeds)
         base = e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
@@ -274,8 +290,8 @@ def main() -> None:
         for q, w in ratios:
             ratios[q, w][path] = e["denoised"][q][w][at] / base
         cells = [f"{e['noisy'][n]:.4f}" for n in noisy_spp]
-        cells += [f"{e['denoised'][q][DEFAULT_SPLIT][n]:.4f}" for q in qualities for n in denoised_spp]
-        cells += [f"{ratios[q, w][path]:.2f}" for q in qualities for w in SPLITS]
+        cells += [f"{e['denoised'][q]['scene'][n]:.4f}" for q in qualities for n in denoised_spp]
+        cells += [f"{ratios[q, w][path]:.2f}" for q in qualities for w in WAYS]
         name = path.relative_to(SHARED) if SHARED in path.parents else path.relative_to(ROOT)
         clean = "" if e["clean"] else " (features prefiltered)"
         seconds = " / ".join(f"{e['seconds'][q]:.3f}" for q in qualities)
@@ -288,7 +304,7 @@ def main() -> None:
         in_set = sorted(ratios[q, w][p] for p in found if p in ratios[q, w])
         median = in_set[len(in_set) // 2] if in_set else float("nan")
         cornell = ratios[q, w].get(CORNELL, float("nan"))
-        print(f"Target ({q}, split {w}): denoised 16 spp below noisy 128 spp: Cornell box {cornell:.2f} "
+        print(f"Target ({q}, filmed {w}): denoised 16 spp below noisy 128 spp: Cornell box {cornell:.2f} "
               f"({'met' if cornell < 1 else 'NOT met'}), median scene of the set ({len(in_set)} of {len(found)} "
               f"scenes) {median:.2f} ({'met' if median < 1 else 'NOT met'})")
     if not a.no_timing:

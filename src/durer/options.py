@@ -50,7 +50,7 @@ class RenderOptions:
     hide_emitters: bool = False   # path: camera rays do not see emitters (nor the environment)
     # the denoiser's features and Intel Open Image Denoise (rendering/denoise.py)
     aovs: bool = False            # also produce albedo and shading normals (RenderResult.albedo, .shading_normals)
-    denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs, box filter)
+    denoise: bool = False         # denoise the colour with OIDN's RT filter (needs pyoidn; implies aovs)
     denoise_quality: str = "high"  # high | balanced | fast: OIDN's preset (time against error: benchmarks/README.md)
     aov_outputs: tuple[str, ...] = ()  # outputs `durer render` writes beside the image (a Mitsuba aov integrator's)
     hit_aovs: bool = False        # also produce position and uv of each pixel's first hit (RenderResult.position, .uv)

@@ -29,7 +29,7 @@ from ..errors import DurerError, MissingDependency
 from ..io.images import depth_visualization, encode_srgb, normal_visualization, quantize_course
 from ..io.loaders import load_scene
 from ..options import RenderOptions
-from ..rendering.denoise import PIXEL_FILTER, require_oidn
+from ..rendering.denoise import require_oidn
 from ..rendering.explain import check_integrator, explain_in
 from ..rendering.explain_draw import segments
 from ..rendering.raycaster import RenderContext
@@ -63,9 +63,9 @@ def denoise_unavailable(options: RenderOptions) -> str | None:
 
 
 def denoised_levels(options: RenderOptions) -> list[tuple[int, RenderOptions]]:
-    """levels_for with the denoiser: every level denoised, with `durer render --denoise`'s one-pixel box filter
-    (the last level is its image); the levels before the last at OIDN's `fast` preset, as they are soon replaced."""
-    levels = levels_for(dataclasses.replace(options, denoise=True, **PIXEL_FILTER))
+    """levels_for with the denoiser: every level denoised as `durer render --denoise` denoises (the last level is
+    its image); the levels before the last at OIDN's `fast` preset, as they are soon replaced."""
+    levels = levels_for(dataclasses.replace(options, denoise=True))
     return [(f, o if i == len(levels) - 1 else dataclasses.replace(o, denoise_quality="fast"))
             for i, (f, o) in enumerate(levels)]
 

@@ -12,10 +12,13 @@ The path tracer's colour is denoised without the emission the camera sees direct
 the surfaces around it, so that part goes around the denoiser and is added back to its output. SPLIT names the
 outputs kept out: surface emitters only; the environment seen directly stays in (benchmarks/README.md).
 
-A denoised render's samples are filtered by a one-pixel box (PIXEL_FILTER), whatever the scene asks for: a wider
-reconstruction filter spreads each sample over several pixels, and OIDN takes the correlated noise for detail (the
-roulette scene of ../shared, filtered by its tent: 0.0039-0.0050 RMSE at 16 spp, by the box: 0.0030-0.0035;
-benchmarks/README.md).
+The film of a denoised render (units._gather_denoised): the denoiser's inputs (the colour less the split part, the
+features) are filtered by a one-pixel box (PIXEL_FILTER), whatever the scene asks for: a wider reconstruction
+filter spreads each sample over several pixels, and OIDN takes the correlated noise for detail (the roulette scene
+of ../shared, filtered by its tent: 0.0039-0.0050 RMSE at 16 spp, by the box: 0.0030-0.0035). OIDN's output is
+then filtered by the scene's filter as an image (refilter: each neighbour pixel weighed by the filter's mean over
+it), and the split part, filmed by the scene's filter from its samples, is added back: the denoised image has the
+pixel filter of the scene's own render (Mitsuba's default gaussian for most scenes; benchmarks/README.md).
 """
 
 from __future__ import annotations
@@ -26,15 +29,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MissingDependency
+from ..options import RenderOptions
 from ..scene.bsdfs import Dielectric, Mask, Surface, TwoSided
 from ..scene.materials import PhongMaterial
 from ..scene.textures import Checkerboard, Texture
+from .film import filter_weight, support_radius
 
 INSTALL = 'denoising needs Intel Open Image Denoise\'s Python binding: pip install "durer[denoise]"'
 QUALITY = "high"  # OIDN's own default preset; RenderOptions.denoise_quality picks another (benchmarks/README.md)
 _QUALITY_CODES = {"high": 6, "balanced": 5, "fast": 4}  # OIDN_QUALITY_HIGH, _BALANCED, _FAST
 SPLIT = ("emission",)  # RenderResult outputs kept out of OIDN's input and added back (module docstring)
-PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of a denoised render (module docstring)
+PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of the denoiser's input (module docstring)
+QUADRATURE = 64  # pixel_weights' points per pixel side (the midpoint rule within 0.05% on the gaussian)
 
 
 def require_oidn():
@@ -110,6 +116,41 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean:
     if direct is not None:
         out = out + direct.astype(np.float32)
     return Denoised(out, time.perf_counter() - start)
+
+
+def pixel_weights(options: RenderOptions) -> np.ndarray:
+    """(2R+1, 2R+1) weights of the pixels within the filter's support radius R around a pixel: the filter's mean
+    over each (midpoint rule, QUADRATURE^2 points), what a sample-filtered pixel weighs a neighbour by when the
+    image is constant over each pixel. The filters are symmetric, so rows may run either way."""
+    radius = support_radius(options)
+    u = (np.arange(QUADRATURE) + 0.5) / QUADRATURE - 0.5
+    x = (np.arange(-radius, radius + 1)[:, None] + u[None, :]).ravel()
+    w = filter_weight(options, x[None, :], x[:, None])
+    side = 2 * radius + 1
+    return w.reshape(side, QUADRATURE, side, QUADRATURE).mean(axis=(1, 3))
+
+
+def refilter(image: np.ndarray, options: RenderOptions) -> np.ndarray:
+    """A box-filtered image (H, W, C) filtered by options' filter as the film filters samples: each pixel the
+    pixel_weights-weighted mean of its neighbours, cropped at the border (the weights of the pixels inside the
+    image summed). The box itself (a one-pixel support) returns the image unchanged."""
+    weights = pixel_weights(options)
+    radius = weights.shape[0] // 2
+    if radius == 0:
+        return image
+    h, w = image.shape[:2]
+    padded = np.zeros((h + 2 * radius, w + 2 * radius) + image.shape[2:])
+    padded[radius:radius + h, radius:radius + w] = image
+    inside = np.zeros((h + 2 * radius, w + 2 * radius))
+    inside[radius:radius + h, radius:radius + w] = 1.0
+    out, total = np.zeros(padded[radius:radius + h, radius:radius + w].shape), np.zeros((h, w))
+    for i in range(2 * radius + 1):
+        for j in range(2 * radius + 1):
+            if weights[i, j] != 0.0:
+                out += weights[i, j] * padded[i:i + h, j:j + w]
+                total += weights[i, j] * inside[i:i + h, j:j + w]
+    total = total.reshape(total.shape + (1,) * (image.ndim - 2))
+    return (out / total).astype(image.dtype)
 
 
 def _image(a: np.ndarray) -> np.ndarray:

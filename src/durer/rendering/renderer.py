@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import replace
+
+import numpy as np
 
 from ..options import RenderOptions
 from ..scene.graph import Scene
@@ -51,29 +52,30 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
 def resolve(scene: Scene, width: int | None = None, height: int | None = None, options: RenderOptions | None = None,
             **kwargs) -> tuple[int, int, RenderOptions]:
     """render()'s arguments checked over the scene's own defaults, memory included: (width, height, options);
-    ValueError naming what is wrong. With denoise, pyoidn is required here (before anything is rendered) and the
-    samples get the denoiser's one-pixel box filter. Shared with durer.dask.render and the frames command, so
-    they render what render() renders."""
+    ValueError naming what is wrong. With denoise, pyoidn is required here (before anything is rendered). Shared
+    with durer.dask.render and the frames command, so they render what render() renders."""
     width, height, options = resolve_arguments(scene, width, height, options, kwargs)
     check_size(width, height, options.samples, options)
     if options.denoise:
-        from .denoise import PIXEL_FILTER, require_oidn
+        from .denoise import require_oidn
 
         require_oidn()
-        options = replace(options, **PIXEL_FILTER)
     return width, height, options
 
 
 def denoise_result(result: RenderResult, materials: Sequence, options: RenderOptions) -> RenderResult:
-    """Replace result.color by OIDN's denoised colour (with the albedo and normal features; the directly seen
-    emission kept out of it, denoise.split_part); in place. `materials`: the scene's (a compiled bundle's), which
-    say whether the features are clean."""
-    from .denoise import clean_features, denoise, split_part
+    """Replace the colour of a render with options.denoise (box-filtered, the directly seen emission left out:
+    rendering/denoise.py) by OIDN's output (with the albedo and normal features) filtered by the scene's filter,
+    plus that emission (filmed by the scene's filter); in place. `materials`: the scene's (a compiled bundle's),
+    which say whether the features are clean."""
+    from .denoise import clean_features, denoise, refilter, split_part
 
     done = denoise(result.color, result.albedo, result.shading_normals,
-                   clean=clean_features(materials, options.integrator == "path"), quality=options.denoise_quality,
-                   direct=split_part(result.aovs))
-    result.color, result.denoise_seconds = done.color, done.seconds
+                   clean=clean_features(materials, options.integrator == "path"), quality=options.denoise_quality)
+    start = time.perf_counter()
+    color, direct = refilter(done.color, options), split_part(result.aovs)
+    result.color = color if direct is None else color + np.nan_to_num(direct, posinf=0.0)
+    result.denoise_seconds = done.seconds + time.perf_counter() - start
     return result
 
 

@@ -27,8 +27,8 @@ class RenderResult:
     the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering); from the path
     tracer also emission and environment (H,W,3), the part of the colour that is light seen directly or through
     mirrors and glass, from surface emitters and from the environment (the denoiser's split); else None. With
-    options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds); the samples are
-    then filtered by a one-pixel box whatever the scene's filter (rendering/denoise.PIXEL_FILTER).
+    options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds); the other outputs
+    are then filtered by a one-pixel box, the emission and the colour by the scene's filter (rendering/denoise.py).
     """
 
     color: np.ndarray

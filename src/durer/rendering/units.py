@@ -29,14 +29,16 @@ samples with the box filter, 226 with a radius-1 tent or gaussian, 56 with radiu
 otherwise (progressive refinement: Job.refinement) gives the same image up to the rounding of the sums'
 association. run() is the local driver: the canonical units on threads, added in order.
 Every sample is keyed by (pixel, sample index) (film.tile_offsets, the path tracer's random streams), so a halo
-pixel's samples are the same in every unit that traces them.
+pixel's samples are the same in every unit that traces them. A denoised render (options.denoise) films the
+denoiser's inputs with a one-pixel box and the part of the colour it adds back with the scene's filter
+(_gather_denoised, rendering/denoise.py).
 """
 
 from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numba as nb
 import numpy as np
@@ -47,6 +49,7 @@ from ..scene.cameras import image_camera
 from ..scene.graph import Scene
 from . import film
 from .context import RenderContext, SampleResult, make_context
+from .denoise import PIXEL_FILTER, SPLIT
 from .hit_aovs import WIDTH as HIT_WIDTH
 from .hit_aovs import hit_points
 from .integrators import Integrator, integrator_for
@@ -57,6 +60,7 @@ PASS = 4096             # samples per pixel of one pass of the canonical decompo
 MAX_TILE = 256          # tile side at most: enough units for two workers and a live progress bar
 HALO_SIDES = 32         # a tile is at least this many filter radii wide: ((32 + 2) / 32)^2 = 1.13x the rays at most
 BASE = ("color", "t", "normal")  # SampleResult's own fields; any other non-None (N,k) field is an AOV
+SPLIT_WEIGHT = "split_weight"  # a denoised render's channel: the scene filter's weights of the split part's samples
 
 
 @dataclass(frozen=True)
@@ -321,16 +325,40 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
             aovs[f.name][sel] = value
     if options.alpha:
         aovs["alpha"][:, 0] = np.isfinite(t)
+    split = [name for name in SPLIT if name in aovs] if options.denoise else []
+    if split:  # the denoiser's input: the colour without the split part, box-filtered (module docstring)
+        color = color - sum(aovs[name] for name in split)
+        aovs = {**{k: v for k, v in aovs.items() if k not in split}, **{k: aovs[k] for k in split}}
     channels = (("color", 3),) + tuple((name, a.shape[1]) for name, a in aovs.items())
+    channels += ((SPLIT_WEIGHT, 1),) if split else ()
     acc = Accumulators.zeros(tile, channels, HIT_WIDTH if options.hit_aovs else 0)
     values = np.concatenate([color, *aovs.values()], axis=1) if aovs else color
     sums, weight = acc.sums.reshape(tile.pixels, -1), acc.weight.reshape(-1)
-    film.gather(points, values, m, halo.rect, tile.rect, width, height, options, sums, weight)
+    if options.denoise:
+        _gather_denoised(points, values, sum(aovs[k].shape[1] for k in split), m, halo, tile, job, sums, weight)
+    else:
+        film.gather(points, values, m, halo.rect, tile.rect, width, height, options, sums, weight)
     centre = _nearest(points, t, normal, m, halo, tile, height, acc)
     if options.hit_aovs:
         acc.surface[:] = hit_points(job.ctx, origins[centre], directions[centre], job.camera.t_min,
                                     t[centre]).reshape(acc.surface.shape)
     return acc
+
+
+def _gather_denoised(points, values, k: int, m: int, halo: Tile, tile: Tile, job: Job, sums: np.ndarray,
+                     weight: np.ndarray) -> None:
+    """film.gather for a denoised render: the denoiser's inputs (every channel but the last k) by the one-pixel box,
+    the last k (the split part, added back after denoising) by the scene's filter, into sums[:, -k-1:-1] with its
+    weights' sum in the last column (SPLIT_WEIGHT)."""
+    o, width, height = job.options, job.width, job.height
+    box = replace(o, **PIXEL_FILTER)
+    own = np.zeros((tile.pixels, values.shape[1] - k))
+    film.gather(points, values[:, :values.shape[1] - k], m, halo.rect, tile.rect, width, height, box, own, weight)
+    sums[:, :own.shape[1]] = own
+    if k:
+        part, wsum = np.zeros((tile.pixels, k)), np.zeros(tile.pixels)
+        film.gather(points, values[:, -k:], m, halo.rect, tile.rect, width, height, o, part, wsum)
+        sums[:, -k - 1:-1], sums[:, -1] = part, wsum
 
 
 def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc: Accumulators) -> np.ndarray:
@@ -365,10 +393,16 @@ def finish(job: Job, acc: Accumulators) -> RenderResult:
     w = acc.weight[..., None]
     pixels = np.divide(acc.sums, w, out=np.zeros_like(acc.sums), where=w > 0)
     aovs, lo = {}, 3
+    split_weight = acc.channel(SPLIT_WEIGHT) if SPLIT_WEIGHT in dict(acc.channels) else None
     # radiance beyond float32 (a light with attenuation 1e-300) is inf in the image, not a warning on stderr
     with np.errstate(over="ignore"):
         for name, k in acc.channels[1:]:
-            aovs[name] = pixels[..., lo:lo + k].astype(np.float32)
+            if split_weight is not None and name in SPLIT:  # filtered by the scene's filter (_gather_denoised)
+                sums = acc.channel(name)
+                aovs[name] = np.divide(sums, split_weight, out=np.zeros_like(sums),
+                                       where=split_weight > 0).astype(np.float32)
+            elif name != SPLIT_WEIGHT:
+                aovs[name] = pixels[..., lo:lo + k].astype(np.float32)
             lo += k
         surface = acc.surface.astype(np.float32) if acc.surface.shape[-1] else None
         return RenderResult(color=pixels[..., :3].astype(np.float32), depth=acc.depth.astype(np.float32),
