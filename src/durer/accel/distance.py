@@ -213,7 +213,7 @@ class DistanceIndex:
         """Whether every mesh instance is closed and consistently oriented: each edge (its ends welded by exact
         coordinates) used as often from a to b as from b to a, so winding numbers are integers off the surface and
         one ray's signed crossings give them (kernels/points/crossings.py). Checked once, on first use."""
-        if self._closed is None:
+        if getattr(self, "_closed", None) is None:  # indexes pickled before the flag existed lack it
             p = self.tree.packed
             used = {int(s) for k, s in enumerate(p.inst_shape) if self.inst_sphere[k] < 0}
             self._closed = all(closed_mesh(self.tree.shapes[s].triangles()) for s in used)

@@ -7,8 +7,11 @@ what the winding rule of kernels/points/winding.py gives, at the cost of a parit
 surface cleanly. It does not where it touches an edge or a vertex (a silhouette edge the ray grazes counts once with
 the watertight test's tie-break, where the surface is crossed zero or two times), runs along a triangle, or starts on
 the surface; a point whose ray comes closer than EDGE_MARGIN (barycentric) to an edge, whose direction is within
-GRAZE of a triangle's plane, or which lies within `t_eps` of a surface it meets, is marked unsure, and the caller
-evaluates the winding rule there (accel/distance.py).
+GRAZE of a triangle's plane, or which lies within `t_eps` of a surface it meets (the ray starts t_eps behind the point to find it), is marked
+unsure, and the caller
+evaluates the winding rule there (accel/distance.py). A point exactly on an edge or a vertex where the surface
+folds away from its ray meets no crossing there and keeps the ray's answer: on the surface the winding number is
+not an integer and the winding rule's value there is rounding noise (tests/test_kernels_points_crossings.py).
 """
 
 from __future__ import annotations
@@ -63,12 +66,13 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
             dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
             dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
             dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
+            dl = np.sqrt(dx * dx + dy * dy + dz * dz)
+            # from just behind the point, so that a surface through it is met (at |t| <= t_eps: unsure)
             count = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                             ox, oy, oz, dx, dy, dz, 0.0, np.inf, stack, h_t, h_p, h_k, h_u, h_v, 0)
+                             ox, oy, oz, dx, dy, dz, -t_eps / dl, np.inf, stack, h_t, h_p, h_k, h_u, h_v, 0)
             if count > MAX_HITS:
                 bad = True
                 break
-            dl = np.sqrt(dx * dx + dy * dy + dz * dz)
             base = tri_off[inst_shape[k]]
             signed = 0.0
             for h in range(count):
@@ -79,7 +83,7 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
                 c = (dx * normals[f, 0] + dy * normals[f, 1] + dz * normals[f, 2]) / dl
                 u, v = h_u[h], h_v[h]
                 near_edge = min(u, min(v, 1.0 - u - v)) < EDGE_MARGIN
-                if near_edge or abs(c) < GRAZE or h_t[h] * dl <= t_eps:
+                if near_edge or abs(c) < GRAZE or abs(h_t[h]) * dl <= t_eps:
                     bad = True
                     break
                 signed += 1.0 if c > 0.0 else -1.0
