@@ -4,7 +4,8 @@ durer, Open3D 0.20 and, with --old, another durer (a copy of an older src/durer 
 2 threads; medians of --repeat rounds, each round starting with the next engine. Ratios are printed against
 Open3D and against the old durer; answers are checked equal to the old durer's.
 
-    PYTHONPATH=src python benchmarks/counts_ab.py [--repeat 5] [--old /tmp/old:durer_old] [--only count] [--meshes ../shared/meshes]
+    PYTHONPATH=src python benchmarks/counts_ab.py [--repeat 5] [--old /tmp/old:durer_old] [--only count]
+        [--meshes ../shared/meshes]
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..common import JIT, SPHERE, TRIANGLE
 from ..intersect import edge_sign, sphere_hit_in_object_space
-from .chunks import _DX, _DY, _DZ, _OX, _OY, _OZ, _SZ, _TMIN, _BEST, object_packet
+from .chunks import _BEST, _DX, _DY, _DZ, _OX, _OY, _OZ, _SZ, _TMIN, object_packet
 from .layout import PACKET, leaf_range
 from .packet import _any_inside, _edges, _mixed, _packet_far, packet_extents, packet_node
 from .single import blas_all

@@ -1,17 +1,16 @@
 """Winding numbers of closed meshes from one ray (Numba): the signed crossing count, and when it cannot be trusted.
 
-For a closed, consistently oriented mesh (every edge used as often in one direction as in the other) the
-generalized winding number of a point off the surface is an integer: the number of times a ray from the point
-leaves through the surface minus the times it enters (Jacobson et al. 2013, sec. 3). One ray per point then gives
-what the winding rule of kernels/points/winding.py gives, at the cost of a parity test, where the ray crosses the
-surface cleanly. It does not where it touches an edge or a vertex (a silhouette edge the ray grazes counts once with
-the watertight test's tie-break, where the surface is crossed zero or two times), runs along a triangle, or starts on
-the surface; a point whose ray comes closer than EDGE_MARGIN (barycentric) to an edge, whose direction is within
-GRAZE of a triangle's plane, or which lies within `t_eps` of a surface it meets (the ray starts t_eps behind the point to find it), is marked
-unsure, and the caller
-evaluates the winding rule there (accel/distance.py). A point exactly on an edge or a vertex where the surface
-folds away from its ray meets no crossing there and keeps the ray's answer: on the surface the winding number is
-not an integer and the winding rule's value there is rounding noise (tests/test_kernels_points_crossings.py).
+For a closed, consistently oriented mesh (every edge used as often in one direction as in the other) the generalized
+winding number of a point off the surface is an integer: the number of times a ray from the point leaves through the
+surface minus the times it enters (Jacobson et al. 2013, sec. 3). One ray per point then gives what the winding rule
+of kernels/points/winding.py gives, at the cost of a parity test, where the ray crosses the surface cleanly. It may
+not where it touches an edge or a vertex (there the count rests on the watertight test's tie-break and on rounding),
+runs along a triangle, or starts on the surface; a point whose ray comes closer than EDGE_MARGIN (barycentric) to an
+edge, whose direction is within GRAZE of a triangle's plane, or which lies within `t_eps` of a surface it meets (the
+ray starts t_eps behind the point to find it), is marked unsure, and the caller evaluates the winding rule there
+(accel/distance.py). A point exactly on an edge or a vertex where the surface folds away from its ray meets no
+crossing there and keeps the ray's answer: on the surface the winding number is not an integer and the winding
+rule's value there is rounding noise (tests/test_kernels_points_crossings.py).
 """
 
 from __future__ import annotations
