@@ -24,7 +24,7 @@ from .layout import PACKET, leaf_range
 from .packet import _any_inside, _edges, _mixed, _packet_far, packet_extents, packet_node
 from .single import blas_all
 
-HIT_CAP = 16  # hits a ray keeps in a packet's list buffer (the bunny's rays have at most 12)
+HIT_CAP = 16  # hits a ray keeps in a packet's list buffer (a ray with more is walked again alone)
 
 
 @nb.njit(**JIT, inline="always")
