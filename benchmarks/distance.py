@@ -5,6 +5,7 @@ RaycastingScene and trimesh.proximity, same points, same run, with agreement fig
     python benchmarks/distance.py --quick          # 100k points, bunny only
     python benchmarks/distance.py --occupancy 5    # occupancy only, best of 5, durer and Open3D interleaved
     python benchmarks/distance.py --occupancy 5 --subdivided   # the same on the 1.1M-triangle bunny
+    python benchmarks/distance.py --occupancy 5 --torus        # the same on a closed torus (ray crossings)
 
 Meshes: the Stanford bunny and its subdivided version (Stanford Computer Graphics Laboratory), from
 ../shared/meshes or --meshes. Points are uniform in the mesh's bounding box grown by 10% on each side. Every
@@ -24,6 +25,7 @@ import numba
 import numpy as np
 import trimesh
 
+from durer.accel.distance import SIGN_BETA
 from durer.query import RaycastingScene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,14 +55,20 @@ def bench_occupancy(mesh: trimesh.Trimesh, n: int, repeat: int) -> None:
     osc.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)), o3d.core.Tensor(mesh.faces.astype(np.uint32)))
     q = o3d.core.Tensor(pts.astype(np.float32))
     osc.compute_occupancy(q[:1000])
-    t = {"winding": np.inf, "parity": np.inf, "open3d": np.inf}
+    index = scene._distance_index()
+    rule = lambda: np.abs(index.winding_numbers(pts, SIGN_BETA, want_err=False)[0]) > 0.5  # noqa: E731
+    same = np.array_equal(scene.compute_occupancy(pts) > 0.5, rule())
+    t = {"winding": np.inf, "rule": np.inf, "parity": np.inf, "open3d": np.inf}
     for _ in range(repeat):
         t["winding"] = min(t["winding"], timed(lambda: scene.compute_occupancy(pts))[0])
+        t["rule"] = min(t["rule"], timed(rule)[0])
         t["parity"] = min(t["parity"], timed(lambda: scene.compute_occupancy(pts, method="parity"))[0])
         t["open3d"] = min(t["open3d"], timed(lambda: osc.compute_occupancy(q).numpy())[0])
-    print(f"occupancy of {n:,} points, best of {repeat} (interleaved): durer winding {t['winding']:.3f} s, durer "
-          f"parity {t['parity']:.3f} s, Open3D parity {t['open3d']:.3f} s; winding / Open3D "
-          f"{t['winding'] / t['open3d']:.2f}, parity / Open3D {t['parity'] / t['open3d']:.2f}")
+    print(f"occupancy of {n:,} points ({len(mesh.faces):,} triangles, closed: {index.closed}), best of {repeat} "
+          f"(interleaved): durer winding {t['winding']:.3f} s (the far-field winding rule everywhere, as before "
+          f"the closed-mesh rays: {t['rule']:.3f} s; same answers: {same}), durer parity {t['parity']:.3f} s, "
+          f"Open3D parity {t['open3d']:.3f} s; winding / Open3D {t['winding'] / t['open3d']:.2f}, parity / Open3D "
+          f"{t['parity'] / t['open3d']:.2f}")
 
 
 def points_around(mesh: trimesh.Trimesh, n: int, seed: int = 0) -> np.ndarray:
@@ -175,12 +183,17 @@ def main() -> None:
                     help="only occupancy on the bunny's points, best of REPEAT, durer and Open3D interleaved")
     ap.add_argument("--subdivided", action="store_true",
                     help="with --occupancy: the 1.1M-triangle bunny (--sub-points points) instead of the bunny")
+    ap.add_argument("--torus", action="store_true",
+                    help="with --occupancy: a closed torus (16,384 triangles) instead of the bunny")
     args = ap.parse_args()
     print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.processor() or platform.machine()}, "
           f"{numba.get_num_threads()} threads, Python {platform.python_version()}, numba {numba.__version__}")
     bunny = trimesh.load(args.meshes / "bun_zipper.ply", process=False)
     if args.occupancy:
-        if args.subdivided:
+        if args.torus:
+            bench_occupancy(trimesh.creation.torus(1.0, 0.35, major_sections=128, minor_sections=64), args.points,
+                            args.occupancy)
+        elif args.subdivided:
             sub = trimesh.load(args.meshes / "bun_zipper_subdiv2.ply", process=False)
             bench_occupancy(sub, args.sub_points, args.occupancy)
         else:

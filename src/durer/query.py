@@ -391,7 +391,7 @@ class RaycastingScene:
         if not self._instances:
             return np.zeros(len(p), np.bool_)
         if method == "winding":
-            return np.abs(self._distance_index().winding_numbers(p, float(beta), want_err=False)[0]) > 0.5
+            return self._distance_index().inside(p, float(beta))
         if method != "parity":
             raise ValueError(f"method must be 'winding' or 'parity', got {method!r}")
         nsamples = int(nsamples)

@@ -16,7 +16,7 @@ from ..kernels.bvh.bands import band_size, first_problem, n_bands
 from ..kernels.bvh.queries import (
     closest_one_level,
     closest_two_level,
-    crossings_two_level,
+    count_crossings,
     hit_lists_two_level,
     occluded_one_level,
     occluded_two_level,
@@ -132,7 +132,7 @@ def crossings(tree: TwoLevelBVH, rays: RayBatch, fill: bool):
         return counts, (dict(zip(names, (f, i32, i8, i32, f, f), strict=True)) if fill else None)
     args = (tree.packed.args, rays.band())
     if not fill:
-        rays.run(crossings_two_level, *args, np.zeros(n, np.int64), f, i32, i8, i32, f, f, counts)
+        rays.run(count_crossings, *args, rays.width, counts)
         return counts, None
     parts = rays.collect(hit_lists_two_level, *args, counts)
     out = {k: np.concatenate([p[1 + j] for p in parts]) for j, k in enumerate(names)}

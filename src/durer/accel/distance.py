@@ -24,6 +24,7 @@ import numpy as np
 from ..kernels.bvh.layout import WIDTH
 from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.points.closest import closest_points_instances
+from ..kernels.points.crossings import ray_windings
 from ..kernels.points.order import grid_bits, sort_by_cell
 from ..kernels.points.winding import (
     FAR_FLOATS,
@@ -41,6 +42,7 @@ DEFAULT_ORDER = 2   # Taylor order of the far field (1: dipole, 2: dipole and it
 # its largest error is 0.09 (0.05 with beta 2), and on a closed mesh an error below 1/2 cannot flip a sign
 SIGN_BETA = 1.5
 SIMILARITY_RTOL = 1e-9  # A^T A = s^2 I within this relative tolerance counts as a similarity
+RAY_TILT = np.array([0.28, -0.43, 0.61])  # added to each point's outward direction: no ray along an axis or a grid
 SORT_MIN_POINTS = 4096  # fewer points are queried in the caller's order: sorting them would not pay
 
 
@@ -76,6 +78,18 @@ def restore_order(order: np.ndarray | None, *arrays: np.ndarray) -> tuple[np.nda
         b[order] = a
         out.append(b)
     return tuple(out)
+
+
+def closed_mesh(tris: np.ndarray) -> bool:
+    """Whether triangles (F, 9) form a closed, consistently oriented surface: with vertices welded by exact
+    coordinates, the directed edges a -> b are, as a multiset, the reversed ones b -> a."""
+    if not len(tris):
+        return True
+    _, ids = np.unique(tris.reshape(-1, 3), axis=0, return_inverse=True)
+    f = ids.reshape(-1, 3).astype(np.int64)
+    a, b = f.ravel(), np.roll(f, -1, axis=1).ravel()
+    n = int(f.max()) + 1
+    return bool(np.array_equal(np.sort(a * n + b), np.sort(b * n + a)))
 
 
 class DistanceIndex:
@@ -117,6 +131,7 @@ class DistanceIndex:
         self.ell_frame = np.array(frames).reshape(-1, 3, 3)
         self.ell_semi = np.array(semis).reshape(-1, 3)
         self._moments: tuple | None = None
+        self._closed: bool | None = None
         self.build_seconds = time.perf_counter() - start
         self.nbytes = (0 if not self.baked else self.tree.nbytes) + sum(
             a.nbytes for a in (self.o2w, self.scale, self.ell_center, self.ell_frame, self.ell_semi))
@@ -192,6 +207,36 @@ class DistanceIndex:
                        b.sph_center, b.sph_radius, b.child, b.leaf_prim, b.leaf_tri, self.moments, float(beta),
                        int(order), bool(want_err), p.stack, w, err)
         return restore_order(perm, w, err)
+
+    @property
+    def closed(self) -> bool:
+        """Whether every mesh instance is closed and consistently oriented: each edge (its ends welded by exact
+        coordinates) used as often from a to b as from b to a, so winding numbers are integers off the surface and
+        one ray's signed crossings give them (kernels/points/crossings.py). Checked once, on first use."""
+        if getattr(self, "_closed", None) is None:  # indexes pickled before the flag existed lack it
+            p = self.tree.packed
+            used = {int(s) for k, s in enumerate(p.inst_shape) if self.inst_sphere[k] < 0}
+            self._closed = all(closed_mesh(self.tree.shapes[s].triangles()) for s in used)
+        return self._closed
+
+    def inside(self, points: np.ndarray, beta: float) -> np.ndarray:
+        """|winding number| > 1/2 for each point (N, 3): on closed meshes (`closed`) from one ray's signed crossings
+        per point, with the winding rule (far field beta) evaluated where a crossing is not clean (grazing, near an
+        edge, a point on the surface); otherwise the winding rule everywhere."""
+        if not self.closed:
+            return np.abs(self.winding_numbers(points, beta, want_err=False)[0]) > 0.5
+        ordered, perm = cell_order(points)
+        p = self.tree.packed
+        n = len(ordered)
+        w, unsure = np.empty(n), np.zeros(n, np.bool_)
+        if n:
+            lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
+            t_eps = 1e-9 * max(float(np.linalg.norm(hi - lo)), 1e-300)
+            run_blocks(ray_windings, n, ordered, RAY_TILT, (lo + hi) / 2, t_eps, p.top.inst_root, p.w2o, self.sign,
+                       self.inst_sphere, p.inst_shape, p.tri_off, p.normals, *p.blas, p.stack, w, unsure)
+        if unsure.any():
+            w[unsure] = self.winding_numbers(ordered[unsure], beta, want_err=False)[0]
+        return restore_order(perm, np.abs(w) > 0.5)[0]
 
     def crossing_votes(self, points: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """How many of R rays from each point (N, 3) cross the surfaces an odd number of times: ray r along

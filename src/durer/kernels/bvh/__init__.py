@@ -15,7 +15,8 @@ inputs and leaf-ordered outputs).
 (`simd.entry4`: the slab test as <4 x double> vector code), push the entered children nearest first on a small
 stack (`push_nearest_first`) and return the next leaf; the leaf's items are tested by `slot_hit` (watertight
 triangle test, or the sphere in its object space); `pop_closer` drops stacked nodes farther than the best hit.
-`blas_closest`, `blas_any` and `blas_all` are the three walks (closest hit, any hit, every hit);
+`blas_closest`, `blas_any` and `blas_all` are the three walks (closest hit, any hit, every hit; `blas_all` written
+out with branch-free pushes and leaf prefetch, since an all-hits walk opens every box in the ray's range);
 `planes_closest` adds the unbounded planes, which live beside the tree.
 
 **Packets** (chunks.py, packet.py). Sixteen coherent rays (a 4 x 4 image tile, or 16 consecutive rays) that share
@@ -34,6 +35,11 @@ space (`to_object`, direction left unnormalised so t stays the world t) and walk
 a packet where the moved rays stay coherent (`chunks.object_packet`). A packet walks the top tree with the packet
 walk's pieces (`packet_instances`); one ray walks it nearest first for the closest hit (`descend`/`pop_closer`) or
 unordered for any or every hit (`next_instance`).
+
+**Every hit of a packet** (packet_all.py). count_intersections and list_intersections take coherent chunks as
+packets too: the packet walk's node test with no culling but the rays' t_max, unordered, over the top tree and each
+instance's tree (`packet_all_instances`), each triangle tested against the 16 rays with the one-ray arithmetic and
+tie-break, each ray's hits counted and, for lists, kept in a buffer of HIT_CAP a ray.
 
 **The query API's bands** (bands.py, queries.py). The user's rays are read as given (float32 or float64, any
 strides) one cache-sized band at a time into float64 scratch, checked, traced by the walks above, and every

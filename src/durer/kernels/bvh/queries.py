@@ -15,9 +15,11 @@ import numpy as np
 
 from ..common import JIT, MISS, SPHERE, TRIANGLE
 from .bands import band_scratch, load_band, ray_at
-from .instance_packets import any_hit_instances, closest_hit_instances
+from .chunks import load_chunk
+from .instance_packets import _scratch, any_hit_instances, closest_hit_instances
 from .instances import all_hits_instances, hit_normal, next_instance, ray_slabs, to_object, top_walk
 from .layout import BLOCK, PACKET
+from .packet_all import HIT_CAP, hit_buffers, packet_all_instances
 from .single import blas_all, load_ray
 from .trace import any_hit_bvh, closest_hit_bvh
 
@@ -149,13 +151,83 @@ def crossings_two_level(origins, directions, t_min, t_max, tree, band, offsets, 
 
 
 @nb.njit(**JIT, inline="always")
-def _sort_by_t(t, inst, kind, prim, u, v, a, b):
-    """Hits a..b of one ray sorted by t in place (insertion sort, stable: equal t keep the walk's order, as a
-    stable sort of the whole list by (ray, t) would); a ray has a few hits, so this beats one global lexsort."""
+def _ray_hits(o, d, j, lo, hi, tree, top_node, stack_node, bufs):
+    """Every hit of ray j of the band scratch o, d with lo < t < hi, by the one-ray two-level walk
+    (instances.next_instance, single.blas_all): returns the count; the hits go into bufs' t, inst, kind, prim, u,
+    v arrays from 0 on while they have room (empty: counting alone)."""
+    (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
+     sph_radius, sph_w2o, _) = tree
+    _, bt, bi, bk, bp, bu, bv = bufs
+    room = bt.shape[0]
+    ox, oy, oz, dx, dy, dz = load_ray(o, d, j)
+    slabs = ray_slabs(ox, oy, oz, dx, dy, dz)
+    total = 0
+    walk = top_walk(top_node)
+    while True:
+        q, walk = next_instance(top_bounds, top_child, top_leaf, top_node, walk, slabs, ox, oy, oz, lo, hi)
+        if q < 0:
+            return total
+        px, py, pz, qx, qy, qz = to_object(inst_w2o[q], ox, oy, oz, dx, dy, dz)
+        before = total
+        total = blas_all(bounds, child, inst_root[q], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                         px, py, pz, qx, qy, qz, lo, hi, stack_node, bt, bp, bk, bu, bv, total)
+        for h in range(before, min(total, room)):
+            bi[h] = q
+
+
+@nb.njit(**JIT)
+def count_crossings(origins, directions, t_min, t_max, tree, band, width, counts, first, k0, k1):
+    """count_intersections (tree as in closest_two_level): counts[i] of every ray of bands k0..k1. Coherent
+    chunks of PACKET rays (4 x 4 tiles when the rays are an image `width` wide) go through
+    packet_all.packet_all_instances, the others through the one-ray walk of instances.all_hits_instances: the
+    same hits either way."""
+    (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
+     sph_radius, sph_w2o, stack_size) = tree
+    (top_node, _, stack_node, _, rr, ro, top_key, top_order, key, order, idx, _, _, _, _,
+     spread) = _scratch(stack_size, top_bounds, top_child)
+    bufs = hit_buffers(0)
+    cnt = bufs[0]
+    o, d, lo, hi = band_scratch(band)
+    for k in range(k0, k1):
+        r0, m, clean = _world_band(origins, directions, t_min, t_max, tree, k, band, o, d, lo, hi, first)
+        if not clean:
+            continue
+        for c in range((m + PACKET - 1) // PACKET):
+            mm, packet, nrx, nry, nrz, _, _, _ = load_chunk(c, o[:m], d[:m], lo[:m], hi[:m], width, idx, rr, spread)
+            if packet:
+                packet_all_instances(top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim,
+                                     leaf_tri, sph_center, sph_radius, sph_w2o, nrx, nry, nrz, rr, ro, top_node,
+                                     stack_node, top_key, top_order, key, order, bufs)
+                for r in range(PACKET):
+                    counts[r0 + idx[r]] = cnt[r]
+                continue
+            for q in range(mm):
+                j = idx[q]
+                counts[r0 + j] = _ray_hits(o, d, j, lo[j], hi[j], tree, top_node, stack_node, bufs)
+
+
+@nb.njit(**JIT, inline="always")
+def _before(ta, ia, ka, pa, tb, ib, kb, pb):
+    """Whether hit a comes before hit b of the same ray: by t, then instance, kind and primitive, a total order
+    (no two hits of a ray share all four but a sphere's two roots, whose t differ), so the packet and the one-ray
+    walk, which meet a ray's hits in different orders, list them the same."""
+    if ta != tb:
+        return ta < tb
+    if ia != ib:
+        return ia < ib
+    if ka != kb:
+        return ka < kb
+    return pa < pb
+
+
+@nb.njit(**JIT, inline="always")
+def _sort_hits(t, inst, kind, prim, u, v, a, b):
+    """Hits a..b of one ray sorted by _before in place (insertion sort: a ray has a few hits, so this beats one
+    global lexsort)."""
     for i in range(a + 1, b):
         ti, ni, ki, pi, ui, vi = t[i], inst[i], kind[i], prim[i], u[i], v[i]
         j = i - 1
-        while j >= a and t[j] > ti:
+        while j >= a and _before(ti, ni, ki, pi, t[j], inst[j], kind[j], prim[j]):
             t[j + 1], inst[j + 1], kind[j + 1], prim[j + 1], u[j + 1], v[j + 1] = t[j], inst[j], kind[j], prim[j], \
                 u[j], v[j]
             j -= 1
@@ -171,50 +243,54 @@ def _grown(a, used, cap):
 
 @nb.njit(**JIT)
 def hit_lists_two_level(origins, directions, t_min, t_max, tree, band, counts, first, k0, k1):
-    """list_intersections in one pass (the two-level walk of instances.all_hits_instances; tree as in
-    closest_two_level): bands k0..k1 write counts[i] and return their hits, ray by ray in ray order and sorted by
-    t within a ray, as (number, t, inst, kind, prim, u, v) arrays of their own, grown by doubling (a ray that
-    overflows them is walked again). Replaces a counting pass, a filling pass and a global lexsort."""
-    (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
-     sph_radius, sph_w2o, stack_size) = tree
+    """list_intersections in one pass (tree as in closest_two_level): bands k0..k1 write counts[i] and return
+    their hits, ray by ray in ray order and sorted by (t, instance, kind, primitive) within a ray (_sort_hits), as
+    (number, t, inst, kind, prim, u, v) arrays of their own, grown by doubling. Coherent chunks of PACKET
+    consecutive rays go through packet_all.packet_all_instances with HIT_CAP hits a ray (a ray with more is
+    walked again alone), the others through the one-ray walk (_ray_hits; a ray that overflows the arrays is
+    walked again). Replaces a counting pass, a filling pass and a global lexsort."""
+    (top_bounds, top_child, top_leaf, _, _, _, _, _, _, _, _, _, stack_size) = tree
     n = origins.shape[0]
     cap = max(256, 4 * (min(n, k1 * band) - k0 * band))
     bt, bi, bk = np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int8)
     bp, bu, bv = np.empty(cap, np.int32), np.empty(cap), np.empty(cap)
     used = 0
-    top_node = np.empty(stack_size, np.int32)
-    stack_node = np.empty(stack_size, np.int32)
+    (top_node, _, stack_node, _, rr, ro, top_key, top_order, key, order, idx, _, _, _, _,
+     spread) = _scratch(stack_size, top_bounds, top_child)
+    pk = hit_buffers(HIT_CAP)
+    pc, pt, pi, pkd, pp, pu, pv = pk
     o, d, lo, hi = band_scratch(band)
     for k in range(k0, k1):
         r0, m, clean = _world_band(origins, directions, t_min, t_max, tree, k, band, o, d, lo, hi, first)
         if not clean:
             continue
-        for j in range(m):
-            ox, oy, oz, dx, dy, dz = load_ray(o, d, j)
-            slabs = ray_slabs(ox, oy, oz, dx, dy, dz)
-            while True:
-                room = cap - used
-                ot, ok_, op, ou, ov = bt[used:], bk[used:], bp[used:], bu[used:], bv[used:]
-                total = 0
-                walk = top_walk(top_node)
-                while True:
-                    q, walk = next_instance(top_bounds, top_child, top_leaf, top_node, walk, slabs, ox, oy, oz,
-                                            lo[j], hi[j])
-                    if q < 0:
-                        break
-                    px, py, pz, qx, qy, qz = to_object(inst_w2o[q], ox, oy, oz, dx, dy, dz)
-                    before = total
-                    total = blas_all(bounds, child, inst_root[q], leaf_prim, leaf_tri, sph_center, sph_radius,
-                                     sph_w2o, px, py, pz, qx, qy, qz, lo[j], hi[j], stack_node, ot, op, ok_, ou, ov,
-                                     total)
-                    for h in range(before, min(total, room)):
-                        bi[used + h] = q
-                if total <= room:
-                    break
-                cap = max(2 * cap, used + 2 * total)
-                bt, bi, bk = _grown(bt, used, cap), _grown(bi, used, cap), _grown(bk, used, cap)
-                bp, bu, bv = _grown(bp, used, cap), _grown(bu, used, cap), _grown(bv, used, cap)
-            _sort_by_t(bt, bi, bk, bp, bu, bv, used, used + total)
-            counts[r0 + j] = total
-            used += total
+        for c in range((m + PACKET - 1) // PACKET):
+            mm, packet, nrx, nry, nrz, _, _, _ = load_chunk(c, o[:m], d[:m], lo[:m], hi[:m], 0, idx, rr, spread)
+            if packet:
+                packet_all_instances(*tree[:12], nrx, nry, nrz, rr, ro, top_node, stack_node, top_key, top_order,
+                                     key, order, pk)
+            for q in range(mm):
+                j = idx[q]
+                total = pc[q] if packet else HIT_CAP + 1
+                if cap - used < total:  # grow (a one-ray walk grows below when it overflows)
+                    cap = max(2 * cap, used + 2 * total)
+                    bt, bi, bk = _grown(bt, used, cap), _grown(bi, used, cap), _grown(bk, used, cap)
+                    bp, bu, bv = _grown(bp, used, cap), _grown(bu, used, cap), _grown(bv, used, cap)
+                if total <= HIT_CAP:
+                    a = q * HIT_CAP
+                    bt[used:used + total], bi[used:used + total] = pt[a:a + total], pi[a:a + total]
+                    bk[used:used + total], bp[used:used + total] = pkd[a:a + total], pp[a:a + total]
+                    bu[used:used + total], bv[used:used + total] = pu[a:a + total], pv[a:a + total]
+                else:
+                    while True:
+                        room = (pc, bt[used:], bi[used:], bk[used:], bp[used:], bu[used:], bv[used:])
+                        total = _ray_hits(o, d, j, lo[j], hi[j], tree, top_node, stack_node, room)
+                        if total <= cap - used:
+                            break
+                        cap = max(2 * cap, used + 2 * total)
+                        bt, bi, bk = _grown(bt, used, cap), _grown(bi, used, cap), _grown(bk, used, cap)
+                        bp, bu, bv = _grown(bp, used, cap), _grown(bu, used, cap), _grown(bv, used, cap)
+                _sort_hits(bt, bi, bk, bp, bu, bv, used, used + total)
+                counts[r0 + j] = total
+                used += total
     return used, bt[:used], bi[:used], bk[:used], bp[:used], bu[:used], bv[:used]

@@ -1,0 +1,93 @@
+"""Winding numbers of closed meshes from one ray (Numba): the signed crossing count, and when it cannot be trusted.
+
+For a closed, consistently oriented mesh (every edge used as often in one direction as in the other) the generalized
+winding number of a point off the surface is an integer: the number of times a ray from the point leaves through the
+surface minus the times it enters (Jacobson et al. 2013, sec. 3). One ray per point then gives what the winding rule
+of kernels/points/winding.py gives, at the cost of a parity test, where the ray crosses the surface cleanly. It may
+not where it touches an edge or a vertex (there the count rests on the watertight test's tie-break and on rounding),
+runs along a triangle, or starts on the surface; a point whose ray comes closer than EDGE_MARGIN (barycentric) to an
+edge, whose direction is within GRAZE of a triangle's plane, or which lies within `t_eps` of a surface it meets (the
+ray starts t_eps behind the point to find it), is marked unsure, and the caller evaluates the winding rule there
+(accel/distance.py). A point exactly on an edge or a vertex where the surface folds away from its ray meets no
+crossing there and keeps the ray's answer: on the surface the winding number is not an integer and the winding
+rule's value there is rounding noise (tests/test_kernels_points_crossings.py).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ..bvh.single import blas_all
+from ..common import JIT, TRIANGLE
+from .closest import POINTS_PER_BLOCK
+
+EDGE_MARGIN = 1e-6  # barycentric distance to an edge below which a crossing is not trusted
+GRAZE = 1e-6        # |cos| between the ray and a triangle's normal below which a crossing is not trusted
+MAX_HITS = 64       # crossings kept per ray for the checks; a ray with more marks its point unsure
+
+
+@nb.njit(**JIT)
+def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, inst_sphere, inst_shape, tri_off,
+                 normals, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, w_out,
+                 unsure, blk0, blk1):
+    """w_out[i] = the winding number of point i (blocks blk0..blk1) over all instances: for a mesh instance the
+    signed count of one ray's crossings (along tilt + the unit direction from `center` to the point, moved into
+    the instance's object space: + where it leaves through the triangle's counter-clockwise side, times the
+    instance's inst_sign), for a sphere instance 1 inside, 1/2 on the surface (as winding_numbers_instances).
+    unsure[i] = True when a crossing is not clean (module docstring): w_out[i] is then not to be used. Every mesh
+    instance must be closed and consistently oriented (the caller checks)."""
+    n = points.shape[0]
+    stack = np.empty(max(stack_size, 1) * 4, np.int32)
+    h_t, h_u, h_v = np.empty(MAX_HITS), np.empty(MAX_HITS), np.empty(MAX_HITS)
+    h_p, h_k = np.empty(MAX_HITS, np.int32), np.empty(MAX_HITS, np.int8)
+    for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        ax, ay, az = px - center[0], py - center[1], pz - center[2]
+        norm = np.sqrt(ax * ax + ay * ay + az * az)
+        if norm > 0.0:
+            ax, ay, az = ax / norm, ay / norm, az / norm
+        rx, ry, rz = tilt[0] + ax, tilt[1] + ay, tilt[2] + az
+        w = 0.0
+        bad = False
+        for k in range(inst_root.shape[0]):
+            m = inst_w2o[k]
+            ox = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+            oy = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+            oz = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+            s = inst_sphere[k]
+            if s >= 0:
+                dx, dy, dz = ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2]
+                d2 = dx * dx + dy * dy + dz * dz
+                r2 = sph_radius[s] * sph_radius[s]
+                w += 1.0 if d2 < r2 else (0.5 if d2 == r2 else 0.0)
+                continue
+            dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
+            dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
+            dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
+            dl = np.sqrt(dx * dx + dy * dy + dz * dz)
+            # from just behind the point, so that a surface through it is met (at |t| <= t_eps: unsure)
+            count = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                             ox, oy, oz, dx, dy, dz, -t_eps / dl, np.inf, stack, h_t, h_p, h_k, h_u, h_v, 0)
+            if count > MAX_HITS:
+                bad = True
+                break
+            base = tri_off[inst_shape[k]]
+            signed = 0.0
+            for h in range(count):
+                if h_k[h] != TRIANGLE:  # a sphere placed as a mesh's part cannot happen; be safe
+                    bad = True
+                    break
+                f = base + h_p[h]
+                c = (dx * normals[f, 0] + dy * normals[f, 1] + dz * normals[f, 2]) / dl
+                u, v = h_u[h], h_v[h]
+                near_edge = min(u, min(v, 1.0 - u - v)) < EDGE_MARGIN
+                if near_edge or abs(c) < GRAZE or abs(h_t[h]) * dl <= t_eps:
+                    bad = True
+                    break
+                signed += 1.0 if c > 0.0 else -1.0
+            if bad:
+                break
+            w += inst_sign[k] * signed
+        w_out[i] = w
+        unsure[i] = bad
