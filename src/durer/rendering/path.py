@@ -216,8 +216,8 @@ class PathTracer:
                 unblocked = np.zeros(m, bool)
                 unblocked[q] = ~blocked
                 arrays = dict(idx=idx, o=o, d=d, thr=thr, eta=eta, prev=prev, t=hits.t, kind=hits.kind,
-                              prim=hits.prim, point=p, normal=ng, shading_normal=ns, uvd=uvd, slot_em=slot_em, slot=slot,
-                              shadow_ok=shadow_ok,
+                              prim=hits.prim, point=p, normal=ng, shading_normal=ns, uvd=uvd, slot_em=slot_em,
+                              slot=slot, shadow_ok=shadow_ok,
                               shadow_o=shadow_o, shadow_d=shadow_d, shadow_t=shadow_t, shadow_c=shadow_c,
                               next_o=nxt_o, next_d=nxt_d, next_prev=nxt_prev, next_thr=nxt_thr, next_eta=nxt_eta)
                 record(depth, {"L_shaded": shaded, "unblocked": unblocked,
