@@ -13,6 +13,17 @@ import numpy as np
 from ..common import JIT
 
 
+@nb.njit(**JIT, inline="always")
+def unit_normal(ax, ay, az, bx, by, bz):
+    """a x b made unit (zero for a degenerate triangle) in np.cross's and np.linalg.norm's order of operations, so
+    the normals equal NumPy's to the bit."""
+    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    length = np.sqrt((nx * nx + ny * ny) + nz * nz)
+    if length > 0.0:
+        nx, ny, nz = nx / length, ny / length, nz / length
+    return nx, ny, nz
+
+
 @nb.njit(**JIT)
 def item_boxes(tris, sphere_lo, sphere_hi):
     """Boxes (n, 3) lo and hi of the triangles (F, 9) followed by the spheres' boxes (S, 3)."""
@@ -42,13 +53,9 @@ def mesh_normals_bounds(tris):
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
     for i in range(f):
-        ax, ay, az = tris[i, 1, 0] - tris[i, 0, 0], tris[i, 1, 1] - tris[i, 0, 1], tris[i, 1, 2] - tris[i, 0, 2]
-        bx, by, bz = tris[i, 2, 0] - tris[i, 0, 0], tris[i, 2, 1] - tris[i, 0, 1], tris[i, 2, 2] - tris[i, 0, 2]
-        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        length = np.sqrt((nx * nx + ny * ny) + nz * nz)
-        if length > 0.0:
-            nx, ny, nz = nx / length, ny / length, nz / length
-        normals[i, 0], normals[i, 1], normals[i, 2] = nx, ny, nz
+        normals[i, 0], normals[i, 1], normals[i, 2] = unit_normal(
+            tris[i, 1, 0] - tris[i, 0, 0], tris[i, 1, 1] - tris[i, 0, 1], tris[i, 1, 2] - tris[i, 0, 2],
+            tris[i, 2, 0] - tris[i, 0, 0], tris[i, 2, 1] - tris[i, 0, 1], tris[i, 2, 2] - tris[i, 0, 2])
         for c in range(3):
             for a in range(3):
                 x = tris[i, c, a]
@@ -93,13 +100,9 @@ def indexed_items(v, f):
             k = f[i, c]
             for a in range(3):
                 p[c, a] = np.float64(v[k, a])
-        ax, ay, az = p[1, 0] - p[0, 0], p[1, 1] - p[0, 1], p[1, 2] - p[0, 2]
-        bx, by, bz = p[2, 0] - p[0, 0], p[2, 1] - p[0, 1], p[2, 2] - p[0, 2]
-        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        length = np.sqrt((nx * nx + ny * ny) + nz * nz)
-        if length > 0.0:
-            nx, ny, nz = nx / length, ny / length, nz / length
-        normals[i, 0], normals[i, 1], normals[i, 2] = nx, ny, nz
+        normals[i, 0], normals[i, 1], normals[i, 2] = unit_normal(
+            p[1, 0] - p[0, 0], p[1, 1] - p[0, 1], p[1, 2] - p[0, 2], p[2, 0] - p[0, 0], p[2, 1] - p[0, 1],
+            p[2, 2] - p[0, 2])
         for a in range(3):
             x, y, z = p[0, a], p[1, a], p[2, a]
             b_lo, b_hi = min(x, y, z), max(x, y, z)

@@ -21,6 +21,7 @@ import numpy as np
 from ..bvh.single import blas_all
 from ..common import JIT, TRIANGLE
 from .closest import POINTS_PER_BLOCK
+from .winding import away_from, object_point, sphere_winding
 
 EDGE_MARGIN = 1e-6  # barycentric distance to an edge below which a crossing is not trusted
 GRAZE = 1e-6        # |cos| between the ray and a triangle's normal below which a crossing is not trusted
@@ -43,24 +44,15 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
     h_p, h_k = np.empty(MAX_HITS, np.int32), np.empty(MAX_HITS, np.int8)
     for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        ax, ay, az = px - center[0], py - center[1], pz - center[2]
-        norm = np.sqrt(ax * ax + ay * ay + az * az)
-        if norm > 0.0:
-            ax, ay, az = ax / norm, ay / norm, az / norm
+        ax, ay, az = away_from(center, px, py, pz)
         rx, ry, rz = tilt[0] + ax, tilt[1] + ay, tilt[2] + az
         w = 0.0
         bad = False
         for k in range(inst_root.shape[0]):
-            m = inst_w2o[k]
-            ox = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
-            oy = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
-            oz = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
-            s = inst_sphere[k]
+            s, m = inst_sphere[k], inst_w2o[k]
+            ox, oy, oz = object_point(m, px, py, pz)
             if s >= 0:
-                dx, dy, dz = ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2]
-                d2 = dx * dx + dy * dy + dz * dz
-                r2 = sph_radius[s] * sph_radius[s]
-                w += 1.0 if d2 < r2 else (0.5 if d2 == r2 else 0.0)
+                w += sphere_winding(ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2], sph_radius[s])
                 continue
             dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
             dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz

@@ -37,6 +37,31 @@ FOUR_PI = 4.0 * np.pi
 
 
 @nb.njit(**JIT, inline="always")
+def away_from(center, px, py, pz):
+    """The unit direction from `center` to the point (zero at the centre itself): a parity ray's base direction."""
+    ax, ay, az = px - center[0], py - center[1], pz - center[2]
+    norm = np.sqrt(ax * ax + ay * ay + az * az)
+    if norm > 0.0:
+        ax, ay, az = ax / norm, ay / norm, az / norm
+    return ax, ay, az
+
+
+@nb.njit(**JIT, inline="always")
+def object_point(m, px, py, pz):
+    """World point (px, py, pz) in an instance's object space, m its (3, 4) world-to-object rows."""
+    return (m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3], m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3],
+            m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3])
+
+
+@nb.njit(**JIT, inline="always")
+def sphere_winding(dx, dy, dz, r):
+    """A sphere's winding number at offset (dx, dy, dz) from its centre: 1 inside, 1/2 on it, 0 outside."""
+    d2 = dx * dx + dy * dy + dz * dz
+    r2 = r * r
+    return 1.0 if d2 < r2 else (0.5 if d2 == r2 else 0.0)
+
+
+@nb.njit(**JIT, inline="always")
 def solid_angle(leaf_tri, o, px, py, pz):
     """Signed solid angle of the triangle at leaf_tri[o:o+9] seen from p (Van Oosterom and Strackee 1983):
     positive when p sees its back (the side its counter-clockwise normal points away from). 0 at a vertex."""
@@ -254,16 +279,10 @@ def winding_numbers_instances(points, inst_root, inst_w2o, inst_sign, inst_spher
         w = 0.0
         err = 0.0
         for k in range(inst_root.shape[0]):
-            m = inst_w2o[k]
-            ox = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
-            oy = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
-            oz = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+            ox, oy, oz = object_point(inst_w2o[k], px, py, pz)
             s = inst_sphere[k]
             if s >= 0:
-                dx, dy, dz = ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2]
-                d2 = dx * dx + dy * dy + dz * dz
-                r2 = sph_radius[s] * sph_radius[s]
-                w += 1.0 if d2 < r2 else (0.5 if d2 == r2 else 0.0)
+                w += sphere_winding(ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2], sph_radius[s])
                 continue
             omega, e = blas_winding(child, inst_root[k], leaf_prim, leaf_tri, table, beta, order, want_err, ox, oy,
                                     oz, stack)
@@ -287,10 +306,7 @@ def crossing_votes_instances(points, dirs, center, inst_root, inst_w2o, bounds, 
     e_p, e_k = np.empty(0, np.int32), np.empty(0, np.int8)
     for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        ax, ay, az = px - center[0], py - center[1], pz - center[2]
-        norm = np.sqrt(ax * ax + ay * ay + az * az)
-        if norm > 0.0:
-            ax, ay, az = ax / norm, ay / norm, az / norm
+        ax, ay, az = away_from(center, px, py, pz)
         v = 0
         for r in range(dirs.shape[0]):
             count = 0
