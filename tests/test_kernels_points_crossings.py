@@ -48,7 +48,7 @@ def test_closed_torus_takes_the_rays_and_gives_the_exact_winding_rule():
     s = _scene(t.vertices, t.faces)
     index = s._distance_index()
     assert index.closed
-    p = _points(np.asarray(t.vertices), 40, 20000)
+    p = _points(np.asarray(t.vertices), 28, 10000)
     exact = np.abs(index.winding_numbers(p, np.inf, want_err=False)[0]) > 0.5
     np.testing.assert_array_equal(s.compute_occupancy(p) > 0.5, exact)
     # the signed count itself: +1 inside (outward wound), 0 outside, on the rays that were clean
@@ -86,7 +86,7 @@ def test_instances_and_spheres_sum_like_winding_numbers(mirror):
     s.add_sphere([0.0, 0.0, 0.9], 0.4)
     index = s._distance_index()
     assert index.closed
-    p = _points(np.array([[-1.5, -1.5, -0.6], [2.1, 1.7, 1.4]]), 24, 20000)
+    p = _points(np.array([[-1.5, -1.5, -0.6], [2.1, 1.7, 1.4]]), 17, 6000)
     exact = np.abs(index.winding_numbers(p, np.inf, want_err=False)[0]) > 0.5
     np.testing.assert_array_equal(s.compute_occupancy(p) > 0.5, exact)
 

@@ -23,11 +23,11 @@ import numpy as np
 from ..accel.hits import object_kind
 from ..kernels.common import MISS
 from ..kernels.path.bounce import dim1, dim2
-from ..kernels.path.replay import light_sample_bsdf
+from ..kernels.path.replay import light_sample_frame
 from ..kernels.path.warps import power_heuristic1
 from ..scene.cameras import image_camera
 from . import film
-from .bsdfs import TEXTURED_PARAMS
+from .bsdfs import TEXTURED_PARAMS, eval_pdf
 from .path import PIXEL_KEY, PathTracer
 from .raycaster import RenderContext
 from .sampling import key, sobol_pair, uniform
@@ -150,9 +150,12 @@ class _Recorder:
         skey = key(opts.seed, np.array([pixel]), np.array([sample]))
         u = sobol_pair(pkey, np.array([sample]), dim2(depth, 0))
         ld, dist, lw, lpdf = tracer.emitters.sample(p, uniform(skey, dim1(depth, 0)), u)
-        P, T, tex = tracer.table.packed()
-        f, bpdf = light_sample_bsdf(P, T, tex, int(b["slot"][i]), b["normal"][i], b["shading_normal"][i],
-                                    b["uvd"][i], b["d"][i], ld[0])
+        P, _, tex = tracer.table.packed()
+        slot = int(b["slot"][i])
+        wi, wo, k = light_sample_frame(P, tex, slot, b["normal"][i], b["shading_normal"][i], b["uvd"][i], b["d"][i],
+                                       ld[0])
+        f, pdf = eval_pdf(tracer.table, np.array([slot]), wi[None], wo[None], uv=b["uvd"][i:i + 1, :2])
+        f, bpdf = f[0] * k, float(pdf[0]) if k > 0 else 0.0
         mis = power_heuristic1(float(lpdf[0]), bpdf)
         c = b["shadow_c"][i]
         reaches = bool(b["unblocked"][i])
