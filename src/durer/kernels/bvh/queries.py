@@ -150,11 +150,13 @@ def crossings_two_level(origins, directions, t_min, t_max, tree, band, offsets, 
                                out_prim, out_u, out_v, counts[r0:r0 + m], 0, n_blocks_of(m))
 
 
-@nb.njit(**JIT, inline="always")
+@nb.njit(**JIT)
 def _ray_hits(o, d, j, lo, hi, tree, top_node, stack_node, bufs):
     """Every hit of ray j of the band scratch o, d with lo < t < hi, by the one-ray two-level walk
     (instances.next_instance, single.blas_all): returns the count; the hits go into bufs' t, inst, kind, prim, u,
-    v arrays from 0 on while they have room (empty: counting alone)."""
+    v arrays from 0 on while they have room (empty: counting alone). Called, not inlined: its arguments are the
+    band's float64 scratch whatever the caller's rays, so the walk compiles once instead of once per ray layout
+    of each query kernel (eleven in the test suite)."""
     (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
      sph_radius, sph_w2o, _) = tree
     _, bt, bi, bk, bp, bu, bv = bufs
