@@ -181,7 +181,7 @@ def _ray_hits(o, d, j, lo, hi, tree, top_node, stack_node, bufs):
 def count_crossings(origins, directions, t_min, t_max, tree, band, width, counts, first, k0, k1):
     """count_intersections (tree as in closest_two_level): counts[i] of every ray of bands k0..k1. Coherent
     chunks of PACKET rays (4 x 4 tiles when the rays are an image `width` wide) go through
-    packet_all.packet_all_instances, the others through the one-ray walk of instances.all_hits_instances: the
+    packet_all.packet_all_instances, the others through the one-ray walk (_ray_hits, single.blas_all): the
     same hits either way."""
     (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
      sph_radius, sph_w2o, stack_size) = tree
