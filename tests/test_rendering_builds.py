@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 import durer
-from durer import (Group, PerspectiveCamera, PhongMaterial, Plane, PointLight, Scene, Sphere, Transform,
-                   TriangleMesh)
+from durer import Group, PerspectiveCamera, PhongMaterial, Plane, PointLight, Scene, Sphere, Transform, TriangleMesh
 from durer.rendering import builds
 
 KW = dict(width=24, height=18, integrator="path", samples=2, max_depth=3, seed=3)
