@@ -33,6 +33,9 @@ class RenderContext:
     # what an integrator builds once per render at prepare time from the bundle and the accelerator
     # (Integrator.prepare: the path tracer's surface arrays and tree), so no unit builds it again; it pickles
     prepared: dict = field(default_factory=dict, repr=False, compare=False)
+    # what an integrator derives from the bundle and the accelerator alone (the path tracer's surface arrays):
+    # shared by every context of one build, so it is kept with the build between renders (builds.py)
+    derived: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def compiled(self) -> CompiledScene:
@@ -74,11 +77,11 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     is the context's."""
     check_scene(scene)  # every render: the camera is checked, and the fingerprint walks a valid (acyclic) tree
     if options.stats or options.grid is not None:  # counters of this render's rays; the course's grid is cheap
-        bundle, accel = _build(scene, options)
+        bundle, accel, derived = *_build(scene, options), {}
     else:
         key = (options.course_edges, options.integrator == "path", options.accel)
-        bundle, accel = kept_build(scene, key, lambda: _build(scene, options))
-    return RenderContext(bundle=bundle, camera=scene.camera, accel=accel, options=options)
+        bundle, accel, derived = kept_build(scene, key, lambda: (*_build(scene, options), {}))
+    return RenderContext(bundle=bundle, camera=scene.camera, accel=accel, options=options, derived=derived)
 
 
 def _build(scene: Scene, options: RenderOptions) -> tuple[SceneBundle, Accelerator]:
