@@ -25,6 +25,7 @@ from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
+from .bsdfs import TEXTURED_PARAMS
 from .context import RenderContext, SampleResult
 from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, uniform
 from .texturing import leaf_weights
@@ -57,6 +58,12 @@ class PathTracer:
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
         # the denoiser's features: each path's first non-specular hit's albedo and normal, the emission it sees
         self.features = bool(o.aovs or o.denoise)
+        # nothing a ray can hit or escape to gives light (only point, spot and directional lights): the last bounce
+        # of a bounded path would add exactly zero (it only collects emission), so the fused loop skips its trace
+        em, t = self.emitters, self.table
+        self._dark = not (self.features or em.envmap is not None or em.has_environment
+                          or (np.asarray(t.emission) != 0).any()
+                          or (np.asarray(t.tex)[:, TEXTURED_PARAMS.index("emission")] >= 0).any())
 
     def __getstate__(self) -> dict:
         return {k: v for k, v in self.__dict__.items() if k != "_local"}  # buffers belong to this process's threads
@@ -92,6 +99,8 @@ class PathTracer:
         depth, tmin, work = 0, float(t_min), scratch(self._bvh[-1])
         while len(live) and depth < MAX_BOUNCES:
             last = 0 <= self.max_depth <= depth + 1
+            if last and depth and self._dark:  # no light to find at the last vertex: the same L, one trace fewer
+                break
             scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth, self.features)
             run_pieces(trace_bounce, PIECES, live, o, d, thr, eta, prev, path, self._bvh, self._surfaces,
                        self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, aux, (first_t, first_n),
