@@ -8,10 +8,12 @@ tools/mitsuba_references.mirror), so both renderers read the same edited file an
 resolves as in the original; this handles scenes with a `res` parameter and scenes with literal film sizes alike.
 
 Each renderer renders each scene once first (warm: Numba's and LLVM's compilation), then --rounds times, the engines
-interleaved and their order rotated per round. Timed: durer.render (compiling the scene and building its tree
-included: every render does that) and mi.render (Mitsuba builds its tree in load_file, not timed). Reported: median
-seconds per sample per pixel (the time of one sample for the whole image), wall and process CPU over all threads,
-and the ratios durer / scalar_rgb and durer / llvm_ad_rgb of wall time with their medians over the scenes.
+interleaved and their order rotated per round. Timed: durer.render and mi.render. durer keeps the scene's build
+(compile, tables, BVH) from the warm render while the scene is unchanged (rendering/builds.py; its check, the
+scene's fingerprint, is timed), as Mitsuba builds its tree once in load_file (not timed). Mitsuba's log goes to
+stderr. Reported: median seconds per sample per pixel (the time of one sample for the whole image), wall and
+process CPU over all threads, and the ratios durer / scalar_rgb and durer / llvm_ad_rgb of wall time with their
+medians over the scenes.
 
     DURER_SHARED=../shared PYTHONPATH=src python benchmarks/pathtrace_set.py [--res 128] [--spp 16] [--rounds 3]
         [--only WORD ...] [--skip-llvm]
@@ -87,11 +89,28 @@ def time_call(fn) -> tuple[object, float, float]:
     return out, time.perf_counter() - start, time.process_time() - cpu
 
 
+def mitsuba_log_to_stderr(mi) -> None:
+    """Mitsuba's log lines (WARN on loading some scenes) to stderr: on stdout they landed inside the Markdown table.
+    The logger is the process's (render threads log through it too)."""
+
+    class ToStderr(mi.Appender):
+        def append(self, level, text):
+            print(text, file=sys.stderr, flush=True)
+
+        def log_progress(self, progress, name, formatted, eta, ptr=None):
+            pass
+
+    logger = mi.logger() if hasattr(mi, "logger") else mi.Thread.thread().logger()
+    logger.clear_appenders()
+    logger.add_appender(ToStderr())
+
+
 def mitsuba_renderer(variant: str, xml: Path, spp: int):
     """A function rendering the scene with Mitsuba `variant` (loaded once, untimed) and returning its image."""
     import mitsuba as mi
 
     mi.set_variant(variant)
+    mitsuba_log_to_stderr(mi)
     scene = mi.load_file(str(xml))
 
     def render(seed: int):

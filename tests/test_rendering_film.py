@@ -182,6 +182,31 @@ def test_tent_reconstruction_closed_form():
                                    (9 + third * 6) / (1 + third)])
 
 
+@pytest.mark.parametrize("name,r", [("mitsuba_gaussian", 0.5), ("mitchell", 2.0), ("catmullrom", 2.0),
+                                    ("lanczos", 3.0), ("mitsuba_gaussian", 1.3)])
+@pytest.mark.parametrize("tile", [(0, 0, 5, 7), (3, 4, 6, 5), (8, 2, 3, 9)])
+def test_separable_gather_is_the_per_sample_gather_to_the_bit(name, r, tile):
+    """_gather_separable (each sample's axis weights once per offset) gives _gather_each's sums bit for bit: the same
+    operands per factor, the same order of the sums; including a tile at the image's corner and edges."""
+    width, height = 13, 11
+    o = opts(samples=5, filter=name, filter_radius=r)
+    radius, code = film.support_radius(o), film._FILTER_CODES[name]
+    t = tile
+    row, col, rows, cols = t
+    r0, c0 = max(0, row - radius), max(0, col - radius)
+    r1, c1 = min(height, row + rows + radius), min(width, col + cols + radius)
+    halo = (r0, c0, r1 - r0, c1 - c0)
+    points = film.tile_points(o, width, height, range(r0, r1), range(c0, c1), range(5))
+    values = np.random.default_rng(1).random((len(points), 4))
+    sums = [np.full((rows * cols, 4), 0.5), np.full((rows * cols, 4), 0.5)]
+    weights = [np.full(rows * cols, 0.25), np.full(rows * cols, 0.25)]
+    for f, acc, wsum in zip((film._gather_separable, film._gather_each), sums, weights, strict=True):
+        f(points, values, 5, halo, t, width, height, code, float(r), film.cubic(o), radius, acc, wsum)
+    np.testing.assert_array_equal(sums[0], sums[1])
+    np.testing.assert_array_equal(weights[0], weights[1])
+    assert (weights[0] > 0.25).all()
+
+
 def test_box_average_of_the_pixels_samples():
     o = opts(samples=4, sampler="uniform", filter="box", filter_radius=0.5)
     points, pixel = film.sample_points(2, 2, o)

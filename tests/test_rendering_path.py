@@ -268,3 +268,30 @@ def test_instanced_meshes_take_the_fused_bounce(monkeypatch, tmp_path):
     assert calls
     for a, b in ((fused.color, unfused.color), (fused.depth, unfused.depth), (fused.normals, unfused.normals)):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("emits", [False, True], ids=["point-lights-only", "an-area-light"])
+def test_the_last_bounce_is_skipped_only_where_nothing_emits(emits, monkeypatch):
+    """Only delta lights: the last bounce of a bounded path collects no emission, so the fused loop stops a trace
+    earlier with the same image to the bit; with an area light it traces every bounce."""
+    cam = durer.PerspectiveCamera((0, 0.5, 4), (0, -0.1, -1), (0, 1, 0), 45)
+    mats = [Surface(Diffuse(0.7)), Surface(Diffuse(0.5), 3.0 if emits else 0.0)]
+    scene = durer.Scene(camera=cam, group=durer.Group([durer.Sphere((0, 0, 0), 0.8, 0), durer.Sphere((0, 2, 0), 0.5, 1),
+                                                       durer.Plane((0, 1, 0), -0.8, 0)]),
+                        materials=mats, lights=[durer.PointLight((1, 2, 2), (4, 4, 4))], radiometric_lights=True)
+    kw = dict(integrator="path", samples=4, max_depth=3, seed=5)
+    calls, real = [], P.run_pieces
+    monkeypatch.setattr(P, "run_pieces", lambda f, *a, **k: (calls.append(f), real(f, *a, **k))[1])
+    skipped = durer.render(scene, 16, 12, **kw).color
+    fused = calls.count(P.trace_bounce)
+    init = P.PathTracer.__init__
+
+    def never_skip(self, ctx):
+        init(self, ctx)
+        self._dark = False
+    monkeypatch.setattr(P.PathTracer, "__init__", never_skip)
+    calls.clear()
+    full = durer.render(scene, 16, 12, **kw).color
+    np.testing.assert_array_equal(skipped, full)
+    assert calls.count(P.trace_bounce) == fused + (0 if emits else 1)
+    assert full.max() > 0

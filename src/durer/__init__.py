@@ -50,6 +50,14 @@ def render(scene: Scene, width: int | None = None, height: int | None = None, *,
         return _render(scene, width, height, **kwargs)
 
 
+def drop_build(scene: Scene | None = None) -> None:
+    """Free the compiled build (bundle, tables, BVH) that render keeps for `scene` while it is unchanged, or for
+    every scene (None); the next render rebuilds it (rendering/builds.py: what counts as a change)."""
+    from .rendering.builds import drop
+
+    drop(scene)
+
+
 def load(path: str | os.PathLike, mesh_path: list[str] | None = None, camera: str | int | None = None) -> Scene:
     """Read a scene file, by its extension (io/loaders.py): model files (.glb .gltf .obj .ply .stl .off) through
     trimesh, anything else as a MIT 6.837 scene, whose mesh files are looked up next to it, in the working
@@ -77,6 +85,6 @@ __all__ = [
     "Checkerboard", "Cylinder", "DirectionalLight", "Disk", "DurerError", "FisheyeCamera", "Group", "Marble",
     "Material", "Noise", "OrthographicCamera", "PBRMaterial", "PanoramaCamera", "PerspectiveCamera", "PhongMaterial",
     "Plane", "PointLight", "RaycastingScene", "RenderResult", "Scene", "SceneError", "Sphere", "SpotLight",
-    "Transform", "Triangle", "TriangleMesh", "UsageError", "Wood", "load", "load_dict", "preview", "render",
-    "transforms",
+    "Transform", "Triangle", "TriangleMesh", "UsageError", "Wood", "drop_build", "load", "load_dict", "preview",
+    "render", "transforms",
 ]

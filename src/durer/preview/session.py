@@ -366,7 +366,8 @@ class PreviewSession:
     def _context_for(self, options: RenderOptions) -> RenderContext:
         # the same compiled bundle and accelerator through the view's camera; prepared afresh for these options
         ctx = self._context
-        return RenderContext(bundle=ctx.bundle, camera=self.view.camera, accel=ctx.accel, options=options)
+        return RenderContext(bundle=ctx.bundle, camera=self.view.camera, accel=ctx.accel, options=options,
+                             derived=ctx.derived)
 
     def _render_progressively(self) -> int:
         """Render the levels of the current generation; stop early when it changes. Returns the generation the

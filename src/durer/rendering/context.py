@@ -15,6 +15,8 @@ from ..accel.hits import Accelerator
 from ..accel.stats import CountingAccelerator, RayStats
 from ..options import RenderOptions
 from ..scene.graph import Scene
+from ..scene.validate import check_scene
+from .builds import kept_build
 from .bundle import SceneBundle, compile_bundle
 from .shading import MaterialTable
 
@@ -31,6 +33,9 @@ class RenderContext:
     # what an integrator builds once per render at prepare time from the bundle and the accelerator
     # (Integrator.prepare: the path tracer's surface arrays and tree), so no unit builds it again; it pickles
     prepared: dict = field(default_factory=dict, repr=False, compare=False)
+    # what an integrator derives from the bundle and the accelerator alone (the path tracer's surface arrays):
+    # shared by every context of one build, so it is kept with the build between renders (builds.py)
+    derived: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def compiled(self) -> CompiledScene:
@@ -68,7 +73,19 @@ class SampleResult:
 
 def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     """Compile the scene into its bundle (bundle.compile_bundle: ValueError naming a wrong object) and build its
-    accelerator; the scene's own camera is the context's."""
+    accelerator, or take those kept from the last render of the unchanged scene (builds.py); the scene's own camera
+    is the context's."""
+    check_scene(scene)  # every render: the camera is checked, and the fingerprint walks a valid (acyclic) tree
+    if options.stats or options.grid is not None:  # counters of this render's rays; the course's grid is cheap
+        bundle, accel, derived = *_build(scene, options), {}
+    else:
+        key = (options.course_edges, options.integrator == "path", options.accel)
+        bundle, accel, derived = kept_build(scene, key, lambda: (*_build(scene, options), {}))
+    return RenderContext(bundle=bundle, camera=scene.camera, accel=accel, options=options, derived=derived)
+
+
+def _build(scene: Scene, options: RenderOptions) -> tuple[SceneBundle, Accelerator]:
+    """The scene's bundle and accelerator: what make_context builds, or keeps between renders."""
     bundle = compile_bundle(scene, options)
     cs, hit_cs = bundle.given, bundle.geometry
     # the lecture's loop over every object (--accel brute), or the bounding volume hierarchy (the default)
@@ -88,4 +105,4 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
         # the course's -stats without a grid counts its loop over every object; measure that same loop, so the
         # counts are real and compare with the course's (the image is the same as the BVH's, as tests check)
         accel = CountingAccelerator(BruteForce(hit_cs), stats, sum(cs.counts))
-    return RenderContext(bundle=bundle, camera=scene.camera, accel=accel, options=options)
+    return bundle, accel

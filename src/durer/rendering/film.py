@@ -41,7 +41,9 @@ import math
 import numba as nb
 import numpy as np
 
+from ..kernels.camera import perspective_rays
 from ..options import RenderOptions
+from ..scene.cameras import PerspectiveCamera
 from .integrators import integrator_for
 from .sampling import PIXEL_KEY, key, sobol_pair
 
@@ -173,6 +175,15 @@ def camera_rays(camera, points: np.ndarray, width: int, height: int, options: Re
     with aperture samples for a thin lens (PerspectiveCamera.aperture_radius > 0)."""
     if getattr(camera, "aperture_radius", 0.0) > 0:
         return camera.generate_rays(points, width, height, lens_samples(options, pixel, sample))
+    if type(camera) is PerspectiveCamera:  # the pinhole in one Numba pass: the same rays to the bit
+        n = len(points)
+        origins, directions = np.empty((n, 3)), np.empty((n, 3))
+        extent = 2.0 * np.tan(np.radians(camera.angle) / 2.0)
+        frame = (np.asarray(v, dtype=np.float64) for v in (camera.center, camera.direction, camera.horizontal,
+                                                            camera.up))
+        perspective_rays(np.ascontiguousarray(points, dtype=np.float64), int(width), int(height), *frame,
+                         float(extent), origins, directions)
+        return origins, directions, np.ones(n, dtype=bool)
     return camera.generate_rays(points, width, height)
 
 
@@ -309,6 +320,15 @@ def _gather(points, values, per_pixel, halo, tile, width, height, kind, r, bc, r
     """acc[p] += w * value and wsum[p] += w over the samples of the pixels within `radius` of each tile pixel p, in
     _reconstruct's order (neighbour pixels row-major, then their samples in order). The samples are those of the
     halo rectangle (row, col, rows, cols), per_pixel to a pixel, row-major; the tile lies inside it."""
+    if kind >= MITCHELL:  # separable: each sample's axis weights once per offset, not per (offset x, offset y)
+        _gather_separable(points, values, per_pixel, halo, tile, width, height, kind, r, bc, radius, acc, wsum)
+    else:
+        _gather_each(points, values, per_pixel, halo, tile, width, height, kind, r, bc, radius, acc, wsum)
+
+
+@nb.njit(cache=True)
+def _gather_each(points, values, per_pixel, halo, tile, width, height, kind, r, bc, radius, acc, wsum):
+    """_gather with the filter evaluated per (tile pixel, sample): any filter."""
     channels = values.shape[1]
     hr, hc, _, hw = halo
     tr, tc, th, tw = tile
@@ -325,6 +345,47 @@ def _gather(points, values, per_pixel, halo, tile, width, height, kind, r, bc, r
                     q = (rr - hr) * hw + (cc - hc)
                     for s in range(q * per_pixel, (q + 1) * per_pixel):
                         w = _weight(kind, r, bc, points[s, 0] - cx, points[s, 1] - cy)
+                        if w != 0.0:
+                            total += w
+                            for c in range(channels):
+                                acc[p, c] += w * values[s, c]
+            wsum[p] = total
+
+
+@nb.njit(cache=True)
+def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind, r, bc, radius, acc, wsum):
+    """_gather for Mitsuba's separable filters (gaussian, mitchell, catmullrom, lanczos) with the same sums to the
+    bit: a sample's weight for the pixel `k` columns and `l` rows off is wx[s, k] * wy[s, l], each axis' factor
+    computed once per sample and offset from the same operands as _weight's (2 (2 radius + 1) filter evaluations
+    a sample instead of 2 (2 radius + 1)^2: the Gaussian's exps were a third of a radius-2 render)."""
+    channels = values.shape[1]
+    hr, hc, hh, hw = halo
+    tr, tc, th, tw = tile
+    span = 2 * radius + 1
+    n = points.shape[0]
+    wx, wy = np.zeros((n, span)), np.zeros((n, span))
+    for q in range(hh * hw):
+        rr, cc = hr + q // hw, hc + q % hw
+        for s in range(q * per_pixel, (q + 1) * per_pixel):
+            for k in range(span):
+                col = cc + k - radius
+                row = rr + k - radius
+                cx = col + 0.5
+                cy = height - row - 0.5
+                wx[s, k] = _weight1(kind, r, bc, points[s, 0] - cx)
+                wy[s, k] = _weight1(kind, r, bc, points[s, 1] - cy)
+    for i in range(th):
+        row = tr + i
+        for j in range(tw):
+            col = tc + j
+            p = i * tw + j
+            total = wsum[p]
+            for rr in range(max(0, row - radius), min(height, row + radius + 1)):
+                for cc in range(max(0, col - radius), min(width, col + radius + 1)):
+                    q = (rr - hr) * hw + (cc - hc)
+                    kx, ky = col - cc + radius, row - rr + radius
+                    for s in range(q * per_pixel, (q + 1) * per_pixel):
+                        w = wx[s, kx] * wy[s, ky]
                         if w != 0.0:
                             total += w
                             for c in range(channels):

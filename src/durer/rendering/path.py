@@ -25,6 +25,7 @@ from ..kernels.path.bounce import add_unblocked, dim1, shade_bounce
 from ..kernels.path.surface import hit_surfaces
 from ..kernels.path.wavefront import PIECES, scratch, start_paths, trace_bounce
 from ..kernels.threads import run_pieces
+from .bsdfs import TEXTURED_PARAMS
 from .context import RenderContext, SampleResult
 from .sampling import PIXEL_KEY, key, max3, normalize, seed_key, uniform
 from .texturing import leaf_weights
@@ -45,13 +46,9 @@ class PathTracer:
         self.max_depth, self.rr_depth, self.hide = o.max_depth, o.rr_depth, o.hide_emitters
         # course scenes show the background colour to camera rays that escape (the environment only lights)
         self.background = None if b.radiometric else b.background
-        flat = ctx.compiled.flat  # instances flattened: hit_surfaces reads every triangle from one array
-        self._surfaces = tuple(np.ascontiguousarray(a) for a in (
-            flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
-            flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix, flat.sphere_material,
-            flat.plane_normal, flat.plane_material,
-            _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3)),
-            np.asarray(flat.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)))
+        self._surfaces = ctx.derived.get("path.surfaces")  # kept with the scene's build (builds.py)
+        if self._surfaces is None:
+            self._surfaces = ctx.derived["path.surfaces"] = _surface_arrays(ctx)
         # the fused bounce (kernels/path/wavefront.py) needs a one-level tree to walk (Accelerator.kernel_tree) and
         # every piece of shading in Numba (environment maps are: kernels/path/envmap.py): other accelerators
         # and solid textures take the unfused wavefront of closest_hit / any_hit queries
@@ -61,6 +58,12 @@ class PathTracer:
         self._local = threading.local()  # each shading thread's wavefront buffers (_state)
         # the denoiser's features: each path's first non-specular hit's albedo and normal, the emission it sees
         self.features = bool(o.aovs or o.denoise)
+        # nothing a ray can hit or escape to gives light (only point, spot and directional lights): the last bounce
+        # of a bounded path would add exactly zero (it only collects emission), so the fused loop skips its trace
+        em, t = self.emitters, self.table
+        self._dark = not (self.features or em.envmap is not None or em.has_environment
+                          or (np.asarray(t.emission) != 0).any()
+                          or (np.asarray(t.tex)[:, TEXTURED_PARAMS.index("emission")] >= 0).any())
 
     def __getstate__(self) -> dict:
         return {k: v for k, v in self.__dict__.items() if k != "_local"}  # buffers belong to this process's threads
@@ -96,6 +99,8 @@ class PathTracer:
         depth, tmin, work = 0, float(t_min), scratch(self._bvh[-1])
         while len(live) and depth < MAX_BOUNCES:
             last = 0 <= self.max_depth <= depth + 1
+            if last and depth and self._dark:  # no light to find at the last vertex: the same L, one trace fewer
+                break
             scalars = (depth, depth > 0 or not self.hide, last, self.rr_depth, self.features)
             run_pieces(trace_bounce, PIECES, live, o, d, thr, eta, prev, path, self._bvh, self._surfaces,
                        self._miss_constants(depth), bsdf, lights, env, scalars, tmin, L, aux, (first_t, first_n),
@@ -279,6 +284,18 @@ def prepare_path(ctx: RenderContext) -> None:
     """Gather the path tracer's inputs (the bundle's BSDFs and emitters, the surfaces' arrays, the tree to walk)
     once for a render."""
     ctx.prepared.setdefault("path", PathTracer(ctx))
+def _surface_arrays(ctx: RenderContext) -> tuple[np.ndarray, ...]:
+    """What hit_surfaces reads of the scene, from the instances flattened (one array of every triangle): made once
+    per build (RenderContext.derived), not per render (the sphere grid's 325k corner normals: 18 ms a render)."""
+    flat = ctx.compiled.flat
+    return tuple(np.ascontiguousarray(a) for a in (
+        flat.triangles.reshape(-1, 3, 3), flat.triangle_material, flat.sphere_world_to_object,
+        flat.sphere_center, flat.sphere_radius, flat.sphere_normal_matrix, flat.sphere_material,
+        flat.plane_normal, flat.plane_material,
+        _unit_corners(flat.triangle_normals) if flat.has_normals else np.zeros((0, 3, 3)),
+        np.asarray(flat.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)))
+
+
 def _unit_corners(normals: np.ndarray) -> np.ndarray:
     """(F, 3, 3) corner normals scaled to unit length (zero rows stay zero: flat triangles)."""
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3, 3)

@@ -1,0 +1,33 @@
+"""The pinhole perspective camera's rays in one pass (Numba): PerspectiveCamera.generate_rays' NumPy expression
+evaluated per ray in the same order (no fused multiply-add: Numba's default contracts none), so the rays are the
+same to the bit, without its eight temporary (N, 3) arrays and the norm's reduction (rendering/film.camera_rays)."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from .common import JIT
+
+
+@nb.njit(**JIT)
+def perspective_rays(points, width, height, center, direction, horizontal, up, extent, origins, directions):
+    """origins[i] = center, directions[i] = the unit direction through film point points[i] (pixels, y up) of a
+    width x height image, for a camera whose screen is `extent` wide per unit along its longer side:
+    d = (direction + (sx extent) horizontal) + (sy extent) up, over its length (sum of squares in NumPy's order)."""
+    side = float(max(width, height))
+    hw, hh = 0.5 * width, 0.5 * height
+    for i in range(points.shape[0]):
+        a = ((points[i, 0] - hw) / side) * extent
+        b = ((points[i, 1] - hh) / side) * extent
+        d0 = direction[0] + a * horizontal[0] + b * up[0]
+        d1 = direction[1] + a * horizontal[1] + b * up[1]
+        d2 = direction[2] + a * horizontal[2] + b * up[2]
+        n = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        directions[i, 0] = d0 / n
+        directions[i, 1] = d1 / n
+        directions[i, 2] = d2 / n
+        origins[i, 0] = center[0]
+        origins[i, 1] = center[1]
+        origins[i, 2] = center[2]
