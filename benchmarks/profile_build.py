@@ -46,7 +46,7 @@ def stages(v32: np.ndarray, f32: np.ndarray, repeat: int) -> dict[str, float]:
             lambda: build.build_bvh2(lo, hi, items, build.MAX_LEAF, n // (4 * threads)), repeat)
     out["SAH whole tree, serial (build_bvh2)"] = _median(lambda: build.build_bvh2(lo, hi, items, build.MAX_LEAF, 0),
                                                          repeat)
-    box, left, right, start, count, order, _ = build.build_bvh2(lo, hi, items, build.MAX_LEAF, 0)
+    box, left, right, start, count, order = build.build_bvh2(lo, hi, build.MAX_LEAF)
     out["collapse_bvh4"] = _median(lambda: build.collapse_bvh4(box, left, right, start, count), repeat)
     out["build_wide_bvh (as called: threaded when large)"] = _median(lambda: build.build_wide_bvh(lo, hi), repeat)
     out["indexed_leaves (float32 leaf gather)"] = _median(lambda: indexed_leaves(v, f, order, True), repeat)
