@@ -37,18 +37,25 @@ def stages(v32: np.ndarray, f32: np.ndarray, repeat: int) -> dict[str, float]:
     out["validate + convert (add_triangles' checks, float64/int64 copies)"] = _median(
         lambda: (np.isfinite(v32).all(), f32.astype(np.int64).min(), f.max(), np.ascontiguousarray(v32, np.float64)),
         repeat)
-    out["indexed_items (normals, bounds, item boxes)"] = _median(lambda: indexed_items(v, f), repeat)
-    _, _, _, lo, hi = indexed_items(v, f)
-    items = np.arange(n, dtype=np.int64)
+    out["indexed_items (normals, bounds, the build's item rows)"] = _median(lambda: indexed_items(v, f), repeat)
+    _, lo, hi, ib, root_box, root_cb = indexed_items(v, f)
     threads = nb.get_num_threads()
+
+    def top():  # the serial top of the threaded build, to its deferred subtrees
+        rows = ib.copy()
+        arrays = build.node_arrays(n, root_box)
+        build.build_nodes(rows, *arrays, 0, 0, n, root_cb, 1, build.MAX_LEAF, n // (4 * threads),
+                          np.empty((n, 3), np.int64), np.empty((n, 6)))
+
     if n >= build.PARALLEL_BUILD and threads >= 2:
-        out["SAH top (serial, to the deferred subtrees)"] = _median(
-            lambda: build.build_bvh2(lo, hi, items, build.MAX_LEAF, n // (4 * threads)), repeat)
-    out["SAH whole tree, serial (build_bvh2)"] = _median(lambda: build.build_bvh2(lo, hi, items, build.MAX_LEAF, 0),
-                                                         repeat)
-    box, left, right, start, count, order = build.build_bvh2(lo, hi, build.MAX_LEAF)
+        out["SAH top (serial, to the deferred subtrees; with a copy of the item rows)"] = _median(top, repeat)
+    box_lo, box_hi = ib[:, :3].copy(), ib[:, 3:6].copy()
+    out["SAH whole tree, serial (build_bvh2, with item_rows)"] = _median(
+        lambda: build.build_bvh2(box_lo, box_hi, build.MAX_LEAF), repeat)
+    box, left, right, start, count, order = build.build_bvh2(box_lo, box_hi, build.MAX_LEAF)
     out["collapse_bvh4"] = _median(lambda: build.collapse_bvh4(box, left, right, start, count), repeat)
-    out["build_wide_bvh (as called: threaded when large)"] = _median(lambda: build.build_wide_bvh(lo, hi), repeat)
+    out["build_wide_bvh (as called: threaded when large)"] = _median(lambda: build.build_wide_bvh(box_lo, box_hi),
+                                                                      repeat)
     out["indexed_leaves (float32 leaf gather)"] = _median(lambda: indexed_leaves(v, f, order, True), repeat)
     shape = Shape.indexed(v, f)
     out["TwoLevelBVH (pack + the tree over instances)"] = _median(lambda: TwoLevelBVH([shape], [(0, np.eye(4))]),

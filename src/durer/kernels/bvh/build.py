@@ -38,13 +38,35 @@ def _child_bounds(ib, first, end, box, c, fstack, slot):
 
 
 @nb.njit(**JIT)
-def start_build(lo, hi):
-    """What the build works on for boxes lo/hi (n, 3): ib (n, 9) (per item, in node order: lo xyz, hi xyz,
-    centroid xyz), order (n,) int32 (the item at each position), the node arrays for the 2n - 1 nodes a binary
-    tree over n items has at most (box (., 6), left, right, start, count; uninitialised: only rows the build
-    links are written or read, so the untouched ones cost no page faults), with the root's box in row 0, and the
-    root's centroid bounds (6,)."""
+def item_rows(lo, hi):
+    """What the build works on for boxes lo/hi (n, 3): ib (n, 9) (per item: lo xyz, hi xyz, centroid xyz; the
+    build keeps it in node order), the root's box (6,) and the root's centroid bounds (6,). (items.indexed_items
+    makes the same three for a mesh in its own pass over the triangles.)"""
     n = lo.shape[0]
+    ib = np.empty((n, 9))
+    root_box = np.empty(6)
+    root_cb = np.empty(6)
+    for a in range(3):
+        root_cb[a] = root_box[a] = np.inf
+        root_cb[3 + a] = root_box[3 + a] = -np.inf
+    for i in range(n):
+        for a in range(3):
+            lo_, hi_ = lo[i, a], hi[i, a]
+            c = 0.5 * (lo_ + hi_)
+            ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = lo_, hi_, c
+            root_box[a] = min(root_box[a], lo_)
+            root_box[3 + a] = max(root_box[3 + a], hi_)
+            root_cb[a] = min(root_cb[a], c)
+            root_cb[3 + a] = max(root_cb[3 + a], c)
+    return ib, root_box, root_cb
+
+
+@nb.njit(**JIT)
+def node_arrays(n, root_box):
+    """order (n,) int32 (the item at each position, identity to start) and the node arrays for the 2n - 1
+    nodes a binary tree over n items has at most (box (., 6), left, right, start, count), with the root's box
+    in row 0. Uninitialised: the build writes each row it links, and rows never linked are never read, so
+    they cost no page faults."""
     rows = max(2 * n - 1, 1)
     box = np.empty((rows, 6))
     left = np.empty(rows, np.int32)
@@ -52,28 +74,17 @@ def start_build(lo, hi):
     start = np.empty(rows, np.int32)
     count = np.empty(rows, np.int32)
     order = np.empty(n, np.int32)
-    ib = np.empty((n, 9))
-    root_cb = np.empty(6)
-    for a in range(3):
-        root_cb[a] = box[0, a] = np.inf
-        root_cb[3 + a] = box[0, 3 + a] = -np.inf
     for i in range(n):
         order[i] = i
-        for a in range(3):
-            lo_, hi_ = lo[i, a], hi[i, a]
-            c = 0.5 * (lo_ + hi_)
-            ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = lo_, hi_, c
-            box[0, a] = min(box[0, a], lo_)
-            box[0, 3 + a] = max(box[0, 3 + a], hi_)
-            root_cb[a] = min(root_cb[a], c)
-            root_cb[3 + a] = max(root_cb[3 + a], c)
-    return ib, order, box, left, right, start, count, root_cb
+    for a in range(6):
+        box[0, a] = root_box[a]
+    return order, box, left, right, start, count
 
 
 @nb.njit(**JIT)
 def build_nodes(ib, order, box, left, right, start, count, root, first, end, root_cb, next_node, max_leaf, defer,
                 deferred, deferred_cb):
-    """Binned-SAH binary BVH over items first..end of ib/order (start_build's arrays, partitioned in place),
+    """Binned-SAH binary BVH over items first..end of ib/order (item_rows' and node_arrays', partitioned in place),
     its root at node `root` (box[root] already set, centroid bounds root_cb), new nodes numbered from next_node.
     Returns the node number after the last used and the number of nodes deferred.
 
@@ -251,9 +262,10 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
 
 @nb.njit(**JIT)
 def build_bvh2(lo, hi, max_leaf):
-    """The whole binary tree over boxes lo/hi (n, 3) on this thread: box, left, right, start, count (m rows:
-    the build_nodes arrays above) and order (the item at each leaf position)."""
-    ib, order, box, left, right, start, count, root_cb = start_build(lo, hi)
+    """The whole binary tree over boxes lo/hi (n, 3) on this thread (the serial build, for profiles): box, left,
+    right, start, count (m rows: the build_nodes arrays above) and order (the item at each leaf position)."""
+    ib, root_box, root_cb = item_rows(lo, hi)
+    order, box, left, right, start, count = node_arrays(lo.shape[0], root_box)
     none = np.empty((0, 3), np.int64)
     m, _ = build_nodes(ib, order, box, left, right, start, count, 0, 0, lo.shape[0], root_cb, 1, max_leaf, 0,
                        none, np.empty((0, 6)))
@@ -342,9 +354,15 @@ def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     """
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
-    n = lo.shape[0]
+    return build_wide_bvh_rows(*item_rows(lo, hi), max_leaf)
+
+
+def build_wide_bvh_rows(ib: np.ndarray, root_box: np.ndarray, root_cb: np.ndarray, max_leaf: int = MAX_LEAF):
+    """build_wide_bvh over item rows already made (item_rows' three arrays, or items.indexed_items'); ib is
+    reordered in place."""
+    n = ib.shape[0]
     threads = nb.get_num_threads()
-    ib, order, box, left, right, start, count, root_cb = start_build(lo, hi)
+    order, box, left, right, start, count = node_arrays(n, root_box)
     arrays = (ib, order, box, left, right, start, count)
     if n < PARALLEL_BUILD or threads < 2:
         m, _ = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, 0, np.empty((0, 3), np.int64), np.empty((0, 6)))
