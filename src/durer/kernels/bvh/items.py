@@ -83,18 +83,23 @@ def leaf_items(tris, order):
     return leaf_prim, leaf_tri
 
 
-@nb.njit(**JIT)
-def indexed_items(v, f):
+def indexed_items(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, ...]:
     """For the triangles v[f] (vertices (V, 3) float32 or float64, indices (F, 3)): unit normals (F, 3), the
     mesh's bounds lo, hi (3,), and the build's item rows (build.item_rows: ib (F, 9) of each triangle's box and
     centroid, the root's box (6,) and centroid bounds (6,)), in one pass over the indices, with no (F, 3) box
     arrays in between (53 MB of page faults at 1.1M triangles). The arithmetic is mesh_normals_bounds',
-    item_boxes' and item_rows' on float64(v[f]), so the same bits."""
+    item_boxes' and item_rows' on float64(v[f]), so the same bits. The large arrays are NumPy's (see
+    build.node_arrays: huge pages where the system gives them)."""
+    normals, ib = np.empty((len(f), 3)), np.empty((len(f), 9))
+    return (normals, *_indexed_items(v, f, normals, ib))
+
+
+@nb.njit(**JIT)
+def _indexed_items(v, f, normals, ib):
+    """indexed_items into the given normals and ib: returns lo, hi, ib, root_box, root_cb."""
     n = f.shape[0]
-    normals = np.zeros((n, 3))
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
-    ib = np.empty((n, 9))
     root_cb = np.empty(6)
     for a in range(3):
         root_cb[a] = np.inf
@@ -120,7 +125,7 @@ def indexed_items(v, f):
     root_box = np.empty(6)
     for a in range(3):
         root_box[a], root_box[3 + a] = lo[a], hi[a]
-    return normals, lo, hi, ib, root_box, root_cb
+    return lo, hi, ib, root_box, root_cb
 
 
 @nb.njit(**JIT)
