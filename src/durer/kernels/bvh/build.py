@@ -1,6 +1,8 @@
 """BVH construction (Numba): a binned-SAH binary tree, collapsed into the 4-wide layout of kernels/bvh/layout.py.
 
-Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently.
+Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently, each
+by the same kernel (build_nodes) working in place on its own rows of the shared arrays. The large arrays are
+allocated by NumPy and filled by the kernels (NumPy asks for huge pages; Numba's allocator does not).
 """
 
 from __future__ import annotations
