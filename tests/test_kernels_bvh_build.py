@@ -128,3 +128,21 @@ def test_closest_hits_through_the_indexed_tree_equal_brute_force(seed, n_tri):
     np.testing.assert_array_equal(kind, ref.kind)
     np.testing.assert_array_equal(t, ref.t)  # the same watertight test: t to the bit
     assert np.all((prim == ref.prim) | (t == ref.t))
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(0, 300), float32=st.booleans())
+def test_indexed_items_give_the_item_rows_of_the_triangles_boxes(seed, n_tri, float32):
+    """The item rows a mesh's one pass makes (items.indexed_items) are build.item_rows of its triangles' boxes:
+    each row's box and centroid, the root's box and centroid bounds, to the bit."""
+    from durer.kernels.bvh.items import indexed_items, item_boxes
+
+    v, f = _mesh(np.random.default_rng(seed), max(3, n_tri // 2), n_tri, float32)
+    _, lo, hi, ib, root_box, root_cb = indexed_items(v, f)
+    box_lo, box_hi = item_boxes(v[f].reshape(-1, 9), np.zeros((0, 3)), np.zeros((0, 3)))
+    want = build.item_rows(box_lo, box_hi)
+    for got, ref in zip((ib, root_box, root_cb), want, strict=True):
+        np.testing.assert_array_equal(got, ref)
+    np.testing.assert_array_equal(root_box, np.concatenate([lo, hi]))
+    if n_tri:
+        np.testing.assert_array_equal(ib[:, 6:], 0.5 * (ib[:, :3] + ib[:, 3:6]))

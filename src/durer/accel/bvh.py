@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..kernels.bvh.build import build_wide_bvh
+from ..kernels.bvh.build import build_wide_bvh, build_wide_bvh_rows
 from ..kernels.bvh.instance_packets import any_hit_instances, closest_hit_instances
 from ..kernels.bvh.instances import rays_to_object
 from ..kernels.bvh.items import indexed_items, indexed_leaves, item_boxes, leaf_items, mesh_normals_bounds
@@ -71,8 +71,8 @@ def build_indexed_tree(vertices: np.ndarray, faces: np.ndarray, max_leaf: int = 
     """The tree of the mesh vertices[faces] ((V, 3) float, (F, 3) int), read through its indices (no (F, 3, 3)
     copy), and its unit normals (F, 3) and bounds lo, hi: the same tree, normals and bounds as build_tree and
     mesh_normals_bounds give for vertices[faces]."""
-    normals, lo, hi, box_lo, box_hi = indexed_items(vertices, faces)
-    bounds, child, order, depth = build_wide_bvh(box_lo, box_hi, max_leaf)
+    normals, lo, hi, ib, root_box, root_cb = indexed_items(vertices, faces)
+    bounds, child, order, depth = build_wide_bvh_rows(ib, root_box, root_cb, max_leaf)
     leaf_prim, leaf_tri = indexed_leaves(vertices, faces, order, len(order) >= NARROW_LEAVES_FROM)
     return WideBVH(bounds, child, leaf_prim, leaf_tri, depth), normals, lo, hi
 

@@ -1,6 +1,8 @@
 """BVH construction (Numba): a binned-SAH binary tree, collapsed into the 4-wide layout of kernels/bvh/layout.py.
 
-Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently.
+Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently, each
+by the same kernel (build_nodes) working in place on its own rows of the shared arrays. The large arrays are
+allocated by NumPy and filled by the kernels (NumPy asks for huge pages; Numba's allocator does not).
 """
 
 from __future__ import annotations
@@ -24,80 +26,105 @@ def _area(lx, ly, lz, hx, hy, hz):
 
 
 @nb.njit(**JIT)
-def _child_bounds(ib, first, end, box, cb, c):
-    """box[c] and cb[c]: the bounds and centroid bounds of items first..end of ib (lo, hi, centroid rows)."""
+def _child_bounds(ib, first, end, box, c, fstack, slot):
+    """box[c] and fstack[slot]: the bounds and centroid bounds of items first..end of ib (lo, hi, centroid rows)."""
     for a in range(3):
-        box[c, a] = cb[c, a] = np.inf
-        box[c, 3 + a] = cb[c, 3 + a] = -np.inf
+        box[c, a] = fstack[slot, a] = np.inf
+        box[c, 3 + a] = fstack[slot, 3 + a] = -np.inf
     for j in range(first, end):
         for a in range(3):
             box[c, a] = min(box[c, a], ib[j, a])
             box[c, 3 + a] = max(box[c, 3 + a], ib[j, 3 + a])
-            cb[c, a] = min(cb[c, a], ib[j, 6 + a])
-            cb[c, 3 + a] = max(cb[c, 3 + a], ib[j, 6 + a])
+            fstack[slot, a] = min(fstack[slot, a], ib[j, 6 + a])
+            fstack[slot, 3 + a] = max(fstack[slot, 3 + a], ib[j, 6 + a])
+
+
+def item_rows(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the build works on for boxes lo/hi (n, 3): ib (n, 9) (per item: lo xyz, hi xyz, centroid xyz; the
+    build keeps it in node order), the root's box (6,) and the root's centroid bounds (6,). (items.indexed_items
+    makes the same three for a mesh in its own pass over the triangles.)"""
+    ib = np.empty((lo.shape[0], 9))  # NumPy's: see node_arrays
+    return _item_rows(lo, hi, ib)
 
 
 @nb.njit(**JIT)
-def build_bvh2(lo, hi, items, max_leaf, defer):
-    """Binned-SAH binary BVH over the boxes lo/hi (., 3) of `items` (n,). Returns node arrays, the order (positions
-    into items) and the deferred nodes.
-
-    Nodes: box (m, 6) float64, left/right (m,) int32 (-1 for leaves), start/count (m,) int32 into `order`.
-    Each node bins its items' centroids into N_BINS per axis (fewer, 2 per item, for nodes of under 8 items),
-    sweeps the bins for the cheapest SAH split, and becomes a leaf when that is cheaper (and it holds at most
-    max_leaf items) or no split separates centroids.
-    The items' boxes and centroids are kept in node order (moved with the partition), so every pass reads
-    memory contiguously, and each node makes two passes over its items: binning, and the partition, which also
-    gives the children their boxes and centroid bounds.
-    With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in the
-    returned (k, 3) array as (node, first, end), so build_wide_bvh can build those subtrees on other threads.
-    """
-    n = items.shape[0]
-    cap = max(2 * n, 1)
-    box = np.empty((cap, 6))
-    left = np.full(cap, -1, np.int32)
-    right = np.full(cap, -1, np.int32)
-    start = np.zeros(cap, np.int32)
-    count = np.zeros(cap, np.int32)
-    order = np.arange(n).astype(np.int32)
-    ib = np.empty((n, 9))       # per item, in node order: lo xyz, hi xyz, centroid xyz
-    cb = np.empty((cap, 6))     # per node: centroid bounds
-    for a in range(6):
-        cb[0, a] = np.inf if a < 3 else -np.inf
-        box[0, a] = np.inf if a < 3 else -np.inf
+def _item_rows(lo, hi, ib):
+    n = lo.shape[0]
+    root_box = np.empty(6)
+    root_cb = np.empty(6)
+    for a in range(3):
+        root_cb[a] = root_box[a] = np.inf
+        root_cb[3 + a] = root_box[3 + a] = -np.inf
     for i in range(n):
-        item = items[i]
         for a in range(3):
-            lo_, hi_ = lo[item, a], hi[item, a]
+            lo_, hi_ = lo[i, a], hi[i, a]
             c = 0.5 * (lo_ + hi_)
             ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = lo_, hi_, c
-            box[0, a] = min(box[0, a], lo_)
-            box[0, 3 + a] = max(box[0, 3 + a], hi_)
-            cb[0, a] = min(cb[0, a], c)
-            cb[0, 3 + a] = max(cb[0, 3 + a], c)
+            root_box[a] = min(root_box[a], lo_)
+            root_box[3 + a] = max(root_box[3 + a], hi_)
+            root_cb[a] = min(root_cb[a], c)
+            root_cb[3 + a] = max(root_cb[3 + a], c)
+    return ib, root_box, root_cb
 
+
+def node_arrays(n: int, root_box: np.ndarray) -> tuple[np.ndarray, ...]:
+    """order (n,) int32 (the item at each position, identity to start) and the node arrays for the 2n - 1
+    nodes a binary tree over n items has at most (box (., 6), left, right, start, count), with the root's box
+    in row 0. Uninitialised: the build writes each row it links, and rows never linked are never read.
+    Allocated by NumPy, not in a kernel: NumPy asks for huge pages for large arrays (madvise), so touching them
+    costs a page fault per 2 MB instead of per 4 kB (Numba's allocations got ~40k faults, a fifth of the 1.1M
+    bunny's build CPU time, in system time)."""
+    rows = max(2 * n - 1, 1)
+    box = np.empty((rows, 6))
+    box[0] = root_box
+    return (np.arange(n, dtype=np.int32), box, np.empty(rows, np.int32), np.empty(rows, np.int32),
+            np.empty(rows, np.int32), np.empty(rows, np.int32))
+
+
+@nb.njit(**JIT)
+def build_nodes(ib, order, box, left, right, start, count, root, first, end, root_cb, next_node, max_leaf, defer,
+                deferred, deferred_cb):
+    """Binned-SAH binary BVH over items first..end of ib/order (item_rows' and node_arrays', partitioned in place),
+    its root at node `root` (box[root] already set, centroid bounds root_cb), new nodes numbered from next_node.
+    Returns the node number after the last used and the number of nodes deferred.
+
+    Nodes: box, left/right (-1 for leaves), start/count into `order`. Each node bins its items' centroids into
+    N_BINS per axis (fewer, 2 per item, for nodes of under 8 items), sweeps the bins for the cheapest SAH split,
+    and becomes a leaf when that is cheaper (and it holds at most max_leaf items) or no split separates
+    centroids. The items' boxes and centroids are kept in node order (moved with the partition), so every pass
+    reads memory contiguously, and each node makes two passes over its items: binning, and the partition, which
+    also gives the children their boxes and centroid bounds (these ride on the stack until the child is built).
+    With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in
+    deferred (node, first, end) and deferred_cb (its centroid bounds), so build_wide_bvh can build it (this
+    same kernel, in place, on another thread: each subtree touches only its own items and node rows).
+    """
+    inf = np.inf
     bins = np.empty((3 * N_BINS, 6))         # per axis a and bin b, row a * N_BINS + b: lo xyz, hi xyz
     bin_cnt = np.zeros(3 * N_BINS, np.int64)
     right_area = np.empty(N_BINS)
     right_cnt = np.empty(N_BINS, np.int64)
     scale = np.zeros(3)
     stack = np.empty((128, 3), np.int64)   # node, first, end; depth-first keeps the stack at the tree depth
-    m = 1
-    stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
+    fstack = np.empty((128, 6))            # each stacked node's centroid bounds
+    m = next_node
+    stack[0, 0], stack[0, 1], stack[0, 2] = root, first, end
+    for a in range(6):
+        fstack[0, a] = root_cb[a]
     sp = 1
-    deferred = np.empty((cap if defer > 0 else 0, 3), np.int64)
     n_def = 0
-    inf = np.inf
     while sp > 0:
         sp -= 1
         node, first, end = stack[sp, 0], stack[sp, 1], stack[sp, 2]
         cnt = end - first
         start[node] = first
         count[node] = cnt
+        left[node] = right[node] = -1
         if cnt <= 1:
             continue
-        if node != 0 and cnt <= defer:
+        if node != root and cnt <= defer:
             deferred[n_def, 0], deferred[n_def, 1], deferred[n_def, 2] = node, first, end
+            for a in range(6):
+                deferred_cb[n_def, a] = fstack[sp, a]
             n_def += 1
             continue
         nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
@@ -109,7 +136,7 @@ def build_bvh2(lo, hi, items, max_leaf, defer):
                 bins[row, 3] = bins[row, 4] = bins[row, 5] = -inf
         n_axes = 0
         for a in range(3):
-            ext = cb[node, 3 + a] - cb[node, a]
+            ext = fstack[sp, 3 + a] - fstack[sp, a]
             scale[a] = nbins * (1.0 - 1e-9) / ext if ext > 0.0 else 0.0
             if ext > 0.0:
                 n_axes += 1
@@ -118,7 +145,7 @@ def build_bvh2(lo, hi, items, max_leaf, defer):
                 continue  # coincident centroids: no plane separates them
         else:
             # bin centroids on all three axes in one pass (an axis of no extent bins all in bin 0, unused)
-            c0, c1, c2 = cb[node, 0], cb[node, 1], cb[node, 2]
+            c0, c1, c2 = fstack[sp, 0], fstack[sp, 1], fstack[sp, 2]
             s0, s1, s2 = scale[0], scale[1], scale[2]
             top = nbins - 1
             for j in range(first, end):
@@ -170,13 +197,22 @@ def build_bvh2(lo, hi, items, max_leaf, defer):
         split_cost = parent_area * TRAVERSAL_COST + best_cost
         if best_axis >= 0 and cnt <= max_leaf and leaf_cost <= split_cost:
             continue
+        if sp + 2 > stack.shape[0]:
+            grown = np.empty((2 * stack.shape[0], 3), np.int64)
+            grown_f = np.empty((2 * stack.shape[0], 6))
+            for q in range(sp + 1):  # element by element: an array assignment compiles ~5 s of error formatting
+                grown[q, 0], grown[q, 1], grown[q, 2] = stack[q, 0], stack[q, 1], stack[q, 2]
+                for a in range(6):
+                    grown_f[q, a] = fstack[q, a]
+            stack, fstack = grown, grown_f
         l, r = m, m + 1
         m += 2
         left[node], right[node] = l, r
+        # the children go on the stack in the parent's place (sp: right, sp + 1: left, built first)
         if best_axis < 0:
             mid = first + cnt // 2  # too many coincident centroids to keep together: split the list in half
-            _child_bounds(ib, first, mid, box, cb, l)
-            _child_bounds(ib, mid, end, box, cb, r)
+            _child_bounds(ib, mid, end, box, r, fstack, sp)
+            _child_bounds(ib, first, mid, box, l, fstack, sp + 1)
         else:
             # partition the items by bin (in this order: a later halving split and the leaves' order follow it);
             # the children's boxes and centroid bounds grow in registers as each item is placed
@@ -187,7 +223,7 @@ def build_bvh2(lo, hi, items, max_leaf, defer):
             a = best_axis
             i = first
             k = end - 1
-            lo_a = cb[node, a]
+            lo_a = fstack[sp, a]
             sc = scale[a]
             top = nbins - 1
             while i <= k:
@@ -212,30 +248,52 @@ def build_bvh2(lo, hi, items, max_leaf, defer):
                     k -= 1
             mid = i
             box[l, 0], box[l, 1], box[l, 2], box[l, 3], box[l, 4], box[l, 5] = al0, al1, al2, ah0, ah1, ah2
-            cb[l, 0], cb[l, 1], cb[l, 2], cb[l, 3], cb[l, 4], cb[l, 5] = acl0, acl1, acl2, ach0, ach1, ach2
             box[r, 0], box[r, 1], box[r, 2], box[r, 3], box[r, 4], box[r, 5] = bl0, bl1, bl2, bh0, bh1, bh2
-            cb[r, 0], cb[r, 1], cb[r, 2], cb[r, 3], cb[r, 4], cb[r, 5] = bcl0, bcl1, bcl2, bch0, bch1, bch2
-        if sp + 2 > stack.shape[0]:
-            grown = np.empty((2 * stack.shape[0], 3), np.int64)
-            for q in range(sp):  # element by element: an array assignment compiles ~5 s of error formatting
-                grown[q, 0], grown[q, 1], grown[q, 2] = stack[q, 0], stack[q, 1], stack[q, 2]
-            stack = grown
+            fstack[sp, 0], fstack[sp, 1], fstack[sp, 2] = bcl0, bcl1, bcl2
+            fstack[sp, 3], fstack[sp, 4], fstack[sp, 5] = bch0, bch1, bch2
+            q = sp + 1
+            fstack[q, 0], fstack[q, 1], fstack[q, 2] = acl0, acl1, acl2
+            fstack[q, 3], fstack[q, 4], fstack[q, 5] = ach0, ach1, ach2
         stack[sp, 0], stack[sp, 1], stack[sp, 2] = r, mid, end
         stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = l, first, mid
         sp += 2
-    return box[:m], left[:m], right[:m], start[:m], count[:m], order, deferred[:n_def]
+    return m, n_def
+
+
+def build_bvh2(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF) -> tuple[np.ndarray, ...]:
+    """The whole binary tree over boxes lo/hi (n, 3) on this thread (the serial build, for profiles): box, left,
+    right, start, count (m rows: the build_nodes arrays above) and order (the item at each leaf position)."""
+    ib, root_box, root_cb = item_rows(lo, hi)
+    order, box, left, right, start, count = node_arrays(lo.shape[0], root_box)
+    none = np.empty((0, 3), np.int64)
+    m, _ = build_nodes(ib, order, box, left, right, start, count, 0, 0, lo.shape[0], root_cb, 1, max_leaf, 0,
+                       none, np.empty((0, 6)))
+    return box[:m], left[:m], right[:m], start[:m], count[:m], order
+
+
+def collapse_bvh4(box: np.ndarray, left: np.ndarray, right: np.ndarray, start: np.ndarray,
+                  count: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Turn a binary BVH into the 4-wide layout described at the top: each wide node takes up to four
+    grandchildren, opening the largest-area inner child first. Returns bounds, child and the tree depth.
+    Each wide node but a lone leaf root is made from a distinct inner binary node, so that many rows suffice;
+    they are NumPy's (huge pages: see node_arrays)."""
+    rows = max(int(np.count_nonzero(left >= 0)), 1)
+    bounds = np.empty((rows, 6, WIDTH), np.float32)
+    child = np.empty((rows, WIDTH), np.int32)
+    nw, depth = _collapse(box, left, right, start, count, bounds, child, np.empty(rows, np.int64),
+                          np.empty(rows, np.int64))
+    if nw < rows:
+        bounds, child = bounds[:nw].copy(), child[:nw].copy()
+    return bounds, child, depth
 
 
 @nb.njit(**JIT)
-def collapse_bvh4(box, left, right, start, count):
-    """Turn a binary BVH into the 4-wide layout described at the top: each wide node takes up to four
-    grandchildren, opening the largest-area inner child first. Returns bounds, child and the tree depth."""
+def _collapse(box, left, right, start, count, bounds, child, src, depth):
+    """collapse_bvh4 into bounds and child; src and depth: scratch (the binary node each wide node was made
+    from, its depth). Returns the number of wide nodes and the tree depth."""
     m = box.shape[0]
-    bounds = np.empty((max(m, 1), 6, WIDTH), np.float32)
-    child = np.zeros((max(m, 1), WIDTH), np.int32)
-    src = np.empty(max(m, 1), np.int64)    # the binary node each wide node was made from
-    depth = np.zeros(max(m, 1), np.int64)
     src[0] = 0
+    depth[0] = 0
     nw = 1
     max_depth = 1
     slots = np.empty(WIDTH, np.int64)
@@ -291,73 +349,49 @@ def collapse_bvh4(box, left, right, start, count):
                     bounds[w, a, lane] = np.inf  # a box at infinity: every slab test misses it
                 child[w, lane] = 0
         w += 1
-    return bounds[:nw].copy(), child[:nw].copy(), max_depth
+    return nw, max_depth
 
 
 PARALLEL_BUILD = 100_000  # items from which build_wide_bvh builds subtrees on several threads
-
-
-@nb.njit(**JIT)
-def _place(sub_box, sub_left, sub_right, sub_start, sub_count, sub_order, items, node, off, first,
-           box, left, right, start, count, order):
-    """Write a subtree built over items (build_bvh2's arrays) into the whole tree's: its root at `node`, its node
-    i > 0 at off + i - 1, its items' order at order[first:]."""
-    for i in range(sub_box.shape[0]):
-        d = node if i == 0 else off + i - 1
-        for a in range(6):
-            box[d, a] = sub_box[i, a]
-        lc, rc = sub_left[i], sub_right[i]
-        left[d] = lc + off - 1 if lc > 0 else lc
-        right[d] = rc + off - 1 if rc > 0 else rc
-        start[d] = sub_start[i] + first
-        count[d] = sub_count[i]
-    for j in range(sub_order.shape[0]):
-        order[first + j] = items[sub_order[j]]
-
-
-def _build_subtree(lo, hi, max_leaf, items, node, off, first, tree):
-    """Build one deferred subtree and place it in tree (box, left, right, start, count, order), on a pool thread:
-    both kernels are nogil, and each subtree writes only its own rows."""
-    sb, sl, sr, ss, sc, so, _ = build_bvh2(lo, hi, items, max_leaf, 0)
-    _place(sb, sl, sr, ss, sc, so, items, node, off, first, *tree)
 
 
 def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring.
 
     Large inputs on several threads: the top of the tree is built until its open nodes hold at most n / (4
-    threads) items each; those subtrees are then built concurrently and written straight into the whole tree's
-    arrays (a subtree of k items at rows reserved for 2k - 2 nodes; rows left unused are never linked, and
-    collapse_bvh4 follows links only). Each subtree sees its items in the order the serial build would, so the
-    tree is the same as the serial one's.
+    threads) items each; those subtrees are then built concurrently, in place (each on its own items' rows of
+    the shared item arrays, its nodes at rows reserved for it: 2k - 2 for k items; rows left unused are never
+    linked, and collapse_bvh4 follows links only). Each subtree sees its items in the order the serial build
+    would, so the tree is the same as the serial one's.
     """
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
-    n = lo.shape[0]
+    return build_wide_bvh_rows(*item_rows(lo, hi), max_leaf)
+
+
+def build_wide_bvh_rows(ib: np.ndarray, root_box: np.ndarray, root_cb: np.ndarray, max_leaf: int = MAX_LEAF):
+    """build_wide_bvh over item rows already made (item_rows' three arrays, or items.indexed_items'); ib is
+    reordered in place."""
+    n = ib.shape[0]
     threads = nb.get_num_threads()
-    all_items = np.arange(n, dtype=np.int64)
+    order, box, left, right, start, count = node_arrays(n, root_box)
+    arrays = (ib, order, box, left, right, start, count)
     if n < PARALLEL_BUILD or threads < 2:
-        box, left, right, start, count, order, _ = build_bvh2(lo, hi, all_items, max_leaf, 0)
+        m, _ = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, 0, np.empty((0, 3), np.int64), np.empty((0, 6)))
     else:
-        top = build_bvh2(lo, hi, all_items, max_leaf, n // (4 * threads))
-        deferred = top[6]
-        m = len(top[0])
-        sizes = deferred[:, 2] - deferred[:, 1]
+        deferred, deferred_cb = np.empty((n, 3), np.int64), np.empty((n, 6))
+        m, n_def = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, n // (4 * threads), deferred, deferred_cb)
+        sizes = deferred[:n_def, 2] - deferred[:n_def, 1]
         offsets = m + np.concatenate([[0], np.cumsum(2 * sizes - 2)])
-        total = int(offsets[-1])
-        box, start, count = np.empty((total, 6)), np.empty(total, np.int32), np.empty(total, np.int32)
-        left, right = np.empty(total, np.int32), np.empty(total, np.int32)
-        for whole, part in zip((box, left, right, start, count), top[:5], strict=True):
-            whole[:m] = part
-        order = top[5].copy()
-        tree = (box, left, right, start, count, order)
+        m = int(offsets[-1])
         pool = thread_pool(threads)
         futures = []
+        none = np.empty((0, 3), np.int64), np.empty((0, 6))
         for k in np.argsort(-sizes, kind="stable"):  # the largest first
             node, first, end = (int(x) for x in deferred[k])
-            items = top[5][first:end].astype(np.int64)
-            futures.append(pool.submit(_build_subtree, lo, hi, max_leaf, items, node, int(offsets[k]), first, tree))
+            futures.append(pool.submit(build_nodes, *arrays, node, first, end, deferred_cb[k],
+                                       int(offsets[k]), max_leaf, 0, *none))
         for f in futures:
             f.result()
-    bounds, child, depth = collapse_bvh4(box, left, right, start, count)
+    bounds, child, depth = collapse_bvh4(box[:m], left[:m], right[:m], start[:m], count[:m])
     return bounds, child, order, int(depth)
