@@ -33,7 +33,6 @@ from ..kernels.points.winding import (
     FAR_RHO,
     crossing_votes_instances,
     far_field_table,
-    lane_bounds,
     lane_moments,
     winding_numbers_instances,
 )
@@ -274,16 +273,28 @@ class DistanceIndex:
                 rows.append([*c, s * row[FAR_RHO], s * s * row[FAR_AREA]])
         return np.array(rows, np.float64).reshape(-1, 5)
 
-    def _ray_windings(self, points: np.ndarray, center: np.ndarray, t_eps: float) -> tuple[np.ndarray, np.ndarray]:
-        """(signed crossings of each point's ray, unsure) (kernels/points/crossings.ray_windings), in the given
-        order; the ray leaves along RAY_TILT plus the unit direction from `center` to the point."""
+    def _ray_windings(self, points: np.ndarray, caps: DistanceIndex | None) -> tuple[np.ndarray, ...]:
+        """(signed crossings of each point's ray over the meshes and the caps, unsure, bound on the caps' |w|)
+        (kernels/points/crossings.ray_windings), in the given order; the ray leaves along RAY_TILT plus the unit
+        direction from the scene's middle to the point."""
         p = self.tree.packed
         n = len(points)
-        w, unsure = np.empty(n), np.zeros(n, np.bool_)
-        if n:
-            run_blocks(ray_windings, n, points, RAY_TILT, center, t_eps, p.top.inst_root, p.w2o, self.sign,
-                       self.inst_sphere, p.inst_shape, p.tri_off, p.normals, *p.blas, p.stack, w, unsure)
-        return w, unsure
+        w, unsure, bound = np.empty(n), np.zeros(n, np.bool_), np.zeros(n)
+        lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
+        t_eps = 1e-9 * max(float(np.linalg.norm(hi - lo)), 1e-300)
+        if caps is None:  # the meshes' own arrays with no rows: the same types, so one compiled kernel
+            cap_args = (p.top.inst_root[:0], p.w2o[:0], self.sign[:0], self.inst_sphere[:0], p.inst_shape[:0],
+                        p.tri_off[:0], p.normals[:0], *(a[:0] for a in p.blas), p.stack)
+            lanes = np.zeros((0, 5))
+        else:
+            c = caps.tree.packed
+            cap_args = (c.top.inst_root, c.w2o, caps.sign, caps.inst_sphere, c.inst_shape, c.tri_off, c.normals,
+                        *c.blas, c.stack)
+            lanes = caps.root_lanes()
+        run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, t_eps, p.top.inst_root, p.w2o, self.sign,
+                   self.inst_sphere, p.inst_shape, p.tri_off, p.normals, *p.blas, p.stack, cap_args, lanes, w, unsure,
+                   bound)
+        return w, unsure, bound
 
     def inside(self, points: np.ndarray, beta: float) -> np.ndarray:
         """|winding number| > 1/2 for each point (N, 3), from one ray's signed crossings per point: on closed meshes
@@ -299,16 +310,8 @@ class DistanceIndex:
         n = len(ordered)
         if not n:
             return np.zeros(0, np.bool_)
-        lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
-        t_eps = 1e-9 * max(float(np.linalg.norm(hi - lo)), 1e-300)
-        center = (lo + hi) / 2
-        w, unsure = self._ray_windings(ordered, center, t_eps)
+        w, unsure, bound = self._ray_windings(ordered, caps)
         if caps is not None:
-            k_cap, unsure_cap = caps._ray_windings(ordered, center, t_eps)
-            w += k_cap
-            unsure |= unsure_cap
-            bound = np.empty(n)
-            run_blocks(lane_bounds, n, ordered, caps.root_lanes(), bound)
             # far from the caps |w_cap| < 1/2, so an integer count k decides alone: |k - w_cap| > 1/2 iff k != 0
             near = np.flatnonzero(~unsure & ((bound >= 0.5 - CAP_MARGIN) | (w != np.round(w))))
             w_cap, err = caps._windings(ordered[near], CAP_BETA, DEFAULT_ORDER, True)

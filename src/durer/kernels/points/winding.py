@@ -325,18 +325,16 @@ def crossing_votes_instances(points, dirs, center, inst_root, inst_w2o, bounds, 
         votes[i] = v
 
 
-@nb.njit(**JIT)
-def lane_bounds(points, lanes, bound, blk0, blk1):
-    """bound[i] = a bound on |w| of the triangles under the lanes (L, 5: world centre, radius rho, area A) at
-    point i (blocks blk0..blk1): sum of A / (4 pi (d - rho)^2), d the distance to a lane's centre, since no
-    triangle point is nearer than d - rho and a surface of area A seen from at least r subtends at most A / r^2;
-    inf when p is within a lane's sphere. accel/distance.py skips the caps' winding number where it is below 1/2."""
-    n = points.shape[0]
-    for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
-        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        b = 0.0
-        for q in range(lanes.shape[0]):
-            dx, dy, dz = lanes[q, 0] - px, lanes[q, 1] - py, lanes[q, 2] - pz
-            g = np.sqrt(dx * dx + dy * dy + dz * dz) - lanes[q, 3]
-            b += lanes[q, 4] / (FOUR_PI * g * g) if g > 0.0 else np.inf
-        bound[i] = b
+
+@nb.njit(**JIT, inline="always")
+def lane_bound(lanes, px, py, pz):
+    """A bound on |w| of the triangles under the lanes (L, 5: world centre, radius rho, area A) at p: the sum of
+    A / (4 pi (d - rho)^2), d the distance to a lane's centre, since no triangle point is nearer than d - rho and
+    a surface of area A seen from at least r subtends at most A / r^2; inf when p is within a lane's sphere.
+    accel/distance.py skips the caps' winding number where it is below 1/2."""
+    b = 0.0
+    for q in range(lanes.shape[0]):
+        dx, dy, dz = lanes[q, 0] - px, lanes[q, 1] - py, lanes[q, 2] - pz
+        g = np.sqrt(dx * dx + dy * dy + dz * dz) - lanes[q, 3]
+        b += lanes[q, 4] / (FOUR_PI * g * g) if g > 0.0 else np.inf
+    return b
