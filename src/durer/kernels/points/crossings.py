@@ -10,7 +10,8 @@ edge, whose direction is within GRAZE of a triangle's plane, or which lies withi
 ray starts t_eps behind the point to find it), is marked unsure, and the caller evaluates the winding rule there
 (accel/distance.py). A point exactly on an edge or a vertex where the surface folds away from its ray meets no
 crossing there and keeps the ray's answer: on the surface the winding number is not an integer and the winding
-rule's value there is rounding noise (tests/test_kernels_points_crossings.py).
+rule's value there is rounding noise (tests/test_kernels_points_crossings.py). An open mesh is closed by a cap
+(accel/caps.py), a second tree that the same ray crosses in the same pass.
 """
 
 from __future__ import annotations
