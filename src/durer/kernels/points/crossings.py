@@ -29,49 +29,6 @@ GRAZE = 1e-6        # |cos| between the ray and a triangle's normal below which 
 MAX_HITS = 64       # crossings kept per ray for the checks; a ray with more marks its point unsure
 
 
-@nb.njit(**JIT, inline="always")
-def _tree_crossings(px, py, pz, rx, ry, rz, t_eps, inst_root, inst_w2o, inst_sign, inst_sphere, inst_shape, tri_off,
-                    normals, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack, h_t, h_p, h_k,
-                    h_u, h_v):
-    """(w, unsure) of one point over one two-level tree's instances (ray_windings' rule, its docstring)."""
-    w = 0.0
-    bad = False
-    for k in range(inst_root.shape[0]):
-        s, m = inst_sphere[k], inst_w2o[k]
-        ox, oy, oz = object_point(m, px, py, pz)
-        if s >= 0:
-            w += sphere_winding(ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2], sph_radius[s])
-            continue
-        dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
-        dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
-        dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
-        dl = np.sqrt(dx * dx + dy * dy + dz * dz)
-        # from just behind the point, so that a surface through it is met (at |t| <= t_eps: unsure)
-        count = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                         ox, oy, oz, dx, dy, dz, -t_eps / dl, np.inf, stack, h_t, h_p, h_k, h_u, h_v, 0)
-        if count > MAX_HITS:
-            bad = True
-            break
-        base = tri_off[inst_shape[k]]
-        signed = 0.0
-        for h in range(count):
-            if h_k[h] != TRIANGLE:  # a sphere placed as a mesh's part cannot happen; be safe
-                bad = True
-                break
-            f = base + h_p[h]
-            c = (dx * normals[f, 0] + dy * normals[f, 1] + dz * normals[f, 2]) / dl
-            u, v = h_u[h], h_v[h]
-            near_edge = min(u, min(v, 1.0 - u - v)) < EDGE_MARGIN
-            if near_edge or abs(c) < GRAZE or abs(h_t[h]) * dl <= t_eps:
-                bad = True
-                break
-            signed += 1.0 if c > 0.0 else -1.0
-        if bad:
-            break
-        w += inst_sign[k] * signed
-    return w, bad
-
-
 @nb.njit(**JIT)
 def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, inst_sphere, inst_shape, tri_off,
                  normals, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps,
@@ -86,7 +43,7 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
     its winding number from cap_lanes. Every mesh instance of the two together must be closed and consistently
     oriented (the caller checks)."""
     n = points.shape[0]
-    (c_root, c_w2o, c_sign, c_sphere, c_shape, c_off, c_normals, c_bounds, c_child, c_prim, c_tri, c_center, c_radius,
+    (c_root, c_w2o, c_sign, _, c_shape, c_off, c_normals, c_bounds, c_child, c_prim, c_tri, c_center, c_radius,
      c_sw2o, c_stack) = caps
     stack = np.empty(max(stack_size, c_stack, 1) * 4, np.int32)
     h_t, h_u, h_v = np.empty(MAX_HITS), np.empty(MAX_HITS), np.empty(MAX_HITS)
@@ -97,7 +54,7 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
         rx, ry, rz = tilt[0] + ax, tilt[1] + ay, tilt[2] + az
         w = 0.0
         bad = False
-        for k in range(inst_root.shape[0]):  # _tree_crossings written out: calling it cost closed meshes 1.27x
+        for k in range(inst_root.shape[0]):  # each tree written out: an inlined helper cost 1.27x
             s, m = inst_sphere[k], inst_w2o[k]
             ox, oy, oz = object_point(m, px, py, pz)
             if s >= 0:
@@ -131,10 +88,27 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
                 break
             w += inst_sign[k] * signed
         if not bad and c_root.shape[0] > 0:
-            wc, bad = _tree_crossings(px, py, pz, rx, ry, rz, t_eps, c_root, c_w2o, c_sign, c_sphere, c_shape, c_off,
-                                      c_normals, c_bounds, c_child, c_prim, c_tri, c_center, c_radius, c_sw2o, stack,
-                                      h_t, h_p, h_k, h_u, h_v)
-            w += wc
+            for k in range(c_root.shape[0]):  # the caps (meshes only), as above
+                m = c_w2o[k]
+                ox, oy, oz = object_point(m, px, py, pz)
+                dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
+                dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
+                dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
+                dl = np.sqrt(dx * dx + dy * dy + dz * dz)
+                count = blas_all(c_bounds, c_child, c_root[k], c_prim, c_tri, c_center, c_radius, c_sw2o,
+                                 ox, oy, oz, dx, dy, dz, -t_eps / dl, np.inf, stack, h_t, h_p, h_k, h_u, h_v, 0)
+                bad = count > MAX_HITS
+                base = c_off[c_shape[k]]
+                signed = 0.0
+                for h in range(min(count, MAX_HITS)):
+                    f = base + h_p[h]
+                    c = (dx * c_normals[f, 0] + dy * c_normals[f, 1] + dz * c_normals[f, 2]) / dl
+                    u, v = h_u[h], h_v[h]
+                    bad |= min(u, min(v, 1.0 - u - v)) < EDGE_MARGIN or abs(c) < GRAZE or abs(h_t[h]) * dl <= t_eps
+                    signed += 1.0 if c > 0.0 else -1.0
+                if bad:
+                    break
+                w += c_sign[k] * signed
             bound[i] = lane_bound(cap_lanes, px, py, pz)
         w_out[i] = w
         unsure[i] = bad
