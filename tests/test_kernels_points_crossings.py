@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES, needs_meshes
 
 from durer import RaycastingScene
 from durer.accel.distance import closed_mesh
@@ -89,25 +88,3 @@ def test_instances_and_spheres_sum_like_winding_numbers(mirror):
     p = _points(np.array([[-1.5, -1.5, -0.6], [2.1, 1.7, 1.4]]), 17, 6000)
     exact = np.abs(index.winding_numbers(p, np.inf, want_err=False)[0]) > 0.5
     np.testing.assert_array_equal(s.compute_occupancy(p) > 0.5, exact)
-
-
-def test_open_mesh_keeps_the_winding_rule():
-    t = _torus()
-    f = np.asarray(t.faces)
-    s = _scene(t.vertices, f[np.arange(len(f)) % 40 != 0])
-    index = s._distance_index()
-    assert not index.closed
-    p = _points(np.asarray(t.vertices), 24, 5000)
-    rule = np.abs(index.winding_numbers(p, 1.5, want_err=False)[0]) > 0.5
-    np.testing.assert_array_equal(s.compute_occupancy(p) > 0.5, rule)
-
-
-@needs_meshes
-def test_bunny_is_open_and_keeps_the_winding_rule():
-    mesh = trimesh.load(MESHES / "bun_zipper.ply")
-    s = _scene(mesh.vertices, mesh.faces)
-    index = s._distance_index()
-    assert not index.closed  # open at its base
-    p = _points(np.asarray(mesh.vertices), 24, 5000)
-    rule = np.abs(index.winding_numbers(p, 1.5, want_err=False)[0]) > 0.5
-    np.testing.assert_array_equal(s.compute_occupancy(p) > 0.5, rule)

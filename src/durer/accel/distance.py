@@ -27,7 +27,10 @@ from ..kernels.points.closest import closest_points_instances
 from ..kernels.points.crossings import ray_windings
 from ..kernels.points.order import grid_bits, sort_by_cell
 from ..kernels.points.winding import (
+    FAR_AREA,
+    FAR_CX,
     FAR_FLOATS,
+    FAR_RHO,
     crossing_votes_instances,
     far_field_table,
     lane_moments,
@@ -35,6 +38,7 @@ from ..kernels.points.winding import (
 )
 from ..kernels.threads import run_blocks
 from .bvh import Shape, TwoLevelBVH
+from .caps import boundary_cap
 
 DEFAULT_BETA = 2.0  # Barill et al.'s accuracy parameter: a BVH lane is approximated from beta radii away
 DEFAULT_ORDER = 2   # Taylor order of the far field (1: dipole, 2: dipole and its first correction)
@@ -43,6 +47,9 @@ DEFAULT_ORDER = 2   # Taylor order of the far field (1: dipole, 2: dipole and it
 SIGN_BETA = 1.5
 SIMILARITY_RTOL = 1e-9  # A^T A = s^2 I within this relative tolerance counts as a similarity
 RAY_TILT = np.array([0.28, -0.43, 0.61])  # added to each point's outward direction: no ray along an axis or a grid
+CAP_BETA = 2.0  # far field of an open mesh's cap (accel/caps.py): its error bound decides where it is trusted
+CAP_MARGIN = 1e-9  # |w| this close to 1/2 (rounding of the sums) takes the winding rule
+CAP_MAX_SHARE = 0.5  # a mesh whose cap would have more triangles than this share of its own keeps the winding rule
 SORT_MIN_POINTS = 4096  # fewer points are queried in the caller's order: sorting them would not pay
 
 
@@ -197,16 +204,20 @@ class DistanceIndex:
             raise ValueError(f"beta must be greater than 1, got {beta}")
         if order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, got {order}")
-        n = len(points)
         points, perm = cell_order(points)
+        return restore_order(perm, *self._windings(points, beta, order, want_err))
+
+    def _windings(self, points: np.ndarray, beta: float, order: int, want_err: bool) -> tuple[np.ndarray, np.ndarray]:
+        """winding_numbers of points (N, 3) in the order given (sorted already by the caller)."""
+        n = len(points)
         p = self.tree.packed
         b = p.blas
-        w, err = np.empty(n), np.empty(n)
+        w, err = np.empty(n), np.zeros(n)
         if n:
             run_blocks(winding_numbers_instances, n, points, p.top.inst_root, p.w2o, self.sign, self.inst_sphere,
                        b.sph_center, b.sph_radius, b.child, b.leaf_prim, b.leaf_tri, self.moments, float(beta),
                        int(order), bool(want_err), p.stack, w, err)
-        return restore_order(perm, w, err)
+        return w, err
 
     @property
     def closed(self) -> bool:
@@ -219,23 +230,98 @@ class DistanceIndex:
             self._closed = all(closed_mesh(self.tree.shapes[s].triangles()) for s in used)
         return self._closed
 
+    @property
+    def caps(self) -> DistanceIndex | None:
+        """An index over the caps that close the open mesh instances (accel/caps.py), placed as their meshes are;
+        None when a cap would be too large to pay (CAP_MAX_SHARE). Built on first use."""
+        if getattr(self, "_caps", False) is False:  # indexes pickled before the caps existed lack the field
+            self._caps = self._build_caps()
+        return self._caps
+
+    def _build_caps(self) -> DistanceIndex | None:
+        shapes: list[Shape] = []
+        instances, made = [], {}
+        for k, (s, m) in enumerate(self.tree.instances):
+            if self.inst_sphere[k] >= 0:
+                continue
+            if s not in made:
+                tris = self.tree.shapes[s].triangles()
+                cap = boundary_cap(tris)
+                if len(cap) > CAP_MAX_SHARE * len(tris):
+                    return None
+                made[s] = len(shapes) if len(cap) else -1
+                if len(cap):
+                    shapes.append(Shape.mesh(cap.reshape(-1, 3, 3)))
+            if made[s] >= 0:
+                instances.append((made[s], m))
+        return DistanceIndex(TwoLevelBVH(shapes, instances))
+
+    def root_lanes(self) -> np.ndarray:
+        """The root lanes of every mesh instance's tree in world space (L, 5: centre, radius, area), for
+        kernels/points/winding.lane_bounds."""
+        p, table = self.tree.packed, self.moments
+        rows = []
+        for k, root in enumerate(p.top.inst_root):
+            if self.inst_sphere[k] >= 0:
+                continue
+            for lane in range(WIDTH):
+                if self.tree.packed.blas.child[root, lane] == 0:
+                    continue
+                row = table[root * WIDTH + lane]
+                c = self.o2w[k] @ np.append(row[FAR_CX:FAR_CX + 3], 1.0)
+                s = self.scale[k]
+                rows.append([*c, s * row[FAR_RHO], s * s * row[FAR_AREA]])
+        return np.array(rows, np.float64).reshape(-1, 5)
+
+    def _ray_windings(self, points: np.ndarray, caps: DistanceIndex | None) -> tuple[np.ndarray, ...]:
+        """(signed crossings of each point's ray over the meshes and the caps, unsure, bound on the caps' |w|)
+        (kernels/points/crossings.ray_windings), in the given order; the ray leaves along RAY_TILT plus the unit
+        direction from the scene's middle to the point."""
+        p = self.tree.packed
+        n = len(points)
+        w, unsure, bound = np.empty(n), np.zeros(n, np.bool_), np.zeros(n)
+        lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
+        t_eps = 1e-9 * max(float(np.linalg.norm(hi - lo)), 1e-300)
+        if caps is None:  # the meshes' own arrays with no rows: the same types, so one compiled kernel
+            cap_args = (p.top.inst_root[:0], p.w2o[:0], self.sign[:0], self.inst_sphere[:0], p.inst_shape[:0],
+                        p.tri_off[:0], p.normals[:0], *(a[:0] for a in p.blas), p.stack)
+            lanes = np.zeros((0, 5))
+        else:
+            c = caps.tree.packed
+            cap_args = (c.top.inst_root, c.w2o, caps.sign, caps.inst_sphere, c.inst_shape, c.tri_off, c.normals,
+                        *c.blas, c.stack)
+            lanes = caps.root_lanes()
+        run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, t_eps, p.top.inst_root, p.w2o, self.sign,
+                   self.inst_sphere, p.inst_shape, p.tri_off, p.normals, *p.blas, p.stack, cap_args, lanes, w, unsure,
+                   bound)
+        return w, unsure, bound
+
     def inside(self, points: np.ndarray, beta: float) -> np.ndarray:
-        """|winding number| > 1/2 for each point (N, 3): on closed meshes (`closed`) from one ray's signed crossings
-        per point, with the winding rule (far field beta) evaluated where a crossing is not clean (grazing, near an
-        edge, a point on the surface); otherwise the winding rule everywhere."""
-        if not self.closed:
+        """|winding number| > 1/2 for each point (N, 3), from one ray's signed crossings per point: on closed meshes
+        (`closed`) they are the winding number; on open ones the crossings of the meshes and their caps minus the
+        caps' winding number (accel/caps.py): its far field where the error bound keeps |w| off 1/2, else its few
+        triangles summed exactly. The winding rule (far field beta) decides where a crossing is not clean (grazing,
+        near an edge, a point on the surface), where |w| is within CAP_MARGIN of 1/2, and everywhere when the caps
+        would be too large."""
+        caps = None if self.closed else self.caps
+        if not self.closed and caps is None:
             return np.abs(self.winding_numbers(points, beta, want_err=False)[0]) > 0.5
         ordered, perm = cell_order(points)
-        p = self.tree.packed
         n = len(ordered)
-        w, unsure = np.empty(n), np.zeros(n, np.bool_)
-        if n:
-            lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
-            t_eps = 1e-9 * max(float(np.linalg.norm(hi - lo)), 1e-300)
-            run_blocks(ray_windings, n, ordered, RAY_TILT, (lo + hi) / 2, t_eps, p.top.inst_root, p.w2o, self.sign,
-                       self.inst_sphere, p.inst_shape, p.tri_off, p.normals, *p.blas, p.stack, w, unsure)
+        if not n:
+            return np.zeros(0, np.bool_)
+        w, unsure, bound = self._ray_windings(ordered, caps)
+        if caps is not None:
+            # far from the caps |w_cap| < 1/2, so an integer count k decides alone: |k - w_cap| > 1/2 iff k != 0
+            near = np.flatnonzero(~unsure & ((bound >= 0.5 - CAP_MARGIN) | (w != np.round(w))))
+            w_cap, err = caps._windings(ordered[near], CAP_BETA, DEFAULT_ORDER, True)
+            loose = np.flatnonzero(np.abs(np.abs(w[near] - w_cap) - 0.5) <= err + CAP_MARGIN)
+            if len(loose):  # near a cap its far field may not settle the side of 1/2: its few triangles summed
+                w_cap[loose] = caps._windings(ordered[near[loose]], np.inf, DEFAULT_ORDER, False)[0]
+            w[near] -= w_cap
+            unsure[near] |= np.abs(np.abs(w[near]) - 0.5) <= CAP_MARGIN
         if unsure.any():
-            w[unsure] = self.winding_numbers(ordered[unsure], beta, want_err=False)[0]
+            w[unsure] = self._windings(ordered[unsure], beta, DEFAULT_ORDER, False)[0]
         return restore_order(perm, np.abs(w) > 0.5)[0]
 
     def crossing_votes(self, points: np.ndarray, dirs: np.ndarray) -> np.ndarray:

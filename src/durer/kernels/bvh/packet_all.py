@@ -60,25 +60,25 @@ def _triangle_all(j, p, leaf_tri, kx, ky, kz, ro, inst, cnt, bufs, store):
     if not _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, ro):
         return
     ties = 0
-    if not store:  # counts alone: one vector loop
+    mask = np.int64(0)  # store: the rays that hit, found by the vector loop and recorded after it
+    for k in range(PACKET):
+        az, bz, cz, _, _, _, _, _, _, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0)
+        det = e0 + e1 + e2
+        t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
+        on_edge = (e0 == 0.0) | (e1 == 0.0) | (e2 == 0.0)
+        ties += on_edge
+        hit = (det != 0.0) & (ro[_TMIN + k] < t) & (t < ro[_BEST + k]) & ~on_edge & ~_mixed(e0, e1, e2)
+        if store:
+            mask |= np.int64(hit) << k
+        else:
+            cnt[k] += hit
+    if mask:  # the hits' t, u, v again with the same arithmetic, ray by ray (few rays of a leaf's triangle)
         for k in range(PACKET):
-            az, bz, cz, _, _, _, _, _, _, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0)
-            det = e0 + e1 + e2
-            t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
-            on_edge = (e0 == 0.0) | (e1 == 0.0) | (e2 == 0.0)
-            ties += on_edge
-            cnt[k] += (det != 0.0) & (ro[_TMIN + k] < t) & (t < ro[_BEST + k]) & ~on_edge & ~_mixed(e0, e1, e2)
-    else:
-        for k in range(PACKET):
-            az, bz, cz, _, _, _, _, _, _, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0)
-            if _mixed(e0, e1, e2):
-                continue
-            if (e0 == 0.0) | (e1 == 0.0) | (e2 == 0.0):
-                ties += 1
-                continue
-            det = e0 + e1 + e2
-            t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
-            if det != 0.0 and ro[_TMIN + k] < t < ro[_BEST + k]:
+            if (mask >> k) & 1:
+                az, bz, cz, _, _, _, _, _, _, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0,
+                                                                   cz0)
+                det = e0 + e1 + e2
+                t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
                 _record(k, t, TRIANGLE, p, e1 / det, e2 / det, inst, cnt, bufs)
     if ties:
         for k in range(PACKET):  # rays on an edge or a vertex: intersect.watertight_triangle's tie-break

@@ -278,11 +278,11 @@ def hit_lists_two_level(origins, directions, t_min, t_max, tree, band, counts, f
                     cap = max(2 * cap, used + 2 * total)
                     bt, bi, bk = _grown(bt, used, cap), _grown(bi, used, cap), _grown(bk, used, cap)
                     bp, bu, bv = _grown(bp, used, cap), _grown(bu, used, cap), _grown(bv, used, cap)
-                if total <= HIT_CAP:
-                    a = q * HIT_CAP
-                    bt[used:used + total], bi[used:used + total] = pt[a:a + total], pi[a:a + total]
-                    bk[used:used + total], bp[used:used + total] = pkd[a:a + total], pp[a:a + total]
-                    bu[used:used + total], bv[used:used + total] = pu[a:a + total], pv[a:a + total]
+                if total <= HIT_CAP:  # element by element: a ray has a few hits, six slice copies cost more
+                    a = q * HIT_CAP - used
+                    for h in range(used, used + total):
+                        bt[h], bi[h], bk[h], bp[h], bu[h], bv[h] = pt[a + h], pi[a + h], pkd[a + h], pp[a + h], \
+                            pu[a + h], pv[a + h]
                 else:
                     while True:
                         room = (pc, bt[used:], bi[used:], bk[used:], bp[used:], bu[used:], bv[used:])

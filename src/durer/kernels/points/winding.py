@@ -323,3 +323,18 @@ def crossing_votes_instances(points, dirs, center, inst_root, inst_w2o, bounds, 
                                  ox, oy, oz, dx, dy, dz, 0.0, np.inf, stack, e_t, e_p, e_k, e_u, e_v, count)
             v += count & 1
         votes[i] = v
+
+
+
+@nb.njit(**JIT, inline="always")
+def lane_bound(lanes, px, py, pz):
+    """A bound on |w| of the triangles under the lanes (L, 5: world centre, radius rho, area A) at p: the sum of
+    A / (4 pi (d - rho)^2), d the distance to a lane's centre, since no triangle point is nearer than d - rho and
+    a surface of area A seen from at least r subtends at most A / r^2; inf when p is within a lane's sphere.
+    accel/distance.py skips the caps' winding number where it is below 1/2."""
+    b = 0.0
+    for q in range(lanes.shape[0]):
+        dx, dy, dz = lanes[q, 0] - px, lanes[q, 1] - py, lanes[q, 2] - pz
+        g = np.sqrt(dx * dx + dy * dy + dz * dz) - lanes[q, 3]
+        b += lanes[q, 4] / (FOUR_PI * g * g) if g > 0.0 else np.inf
+    return b
