@@ -41,7 +41,7 @@ _QUALITY_CODES = {"high": 6, "balanced": 5, "fast": 4}  # OIDN_QUALITY_HIGH, _BA
 SPLIT = ("emission",)  # RenderResult outputs kept out of OIDN's input and added back (module docstring)
 PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of the denoiser's input (module docstring)
 MOMENT = "second_moment"  # a denoised render's output: each pixel's mean of the squared denoiser input (blend)
-BLEND_RADIUS = 2  # blend's window: the squared differences and variances are averaged over 5 x 5 pixels
+BLEND_RADIUS = 3  # blend's window: the squared differences and variances are averaged over 7 x 7 pixels
 QUADRATURE = 64  # pixel_weights' points per pixel side (the midpoint rule within 0.05% on the gaussian)
 
 
