@@ -6,10 +6,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import durer
+from durer.rendering import denoise as denoise_module
 from durer.rendering.denoise import MOMENT, blend, window_mean
 from durer.rendering.renderer import make_context, render_in, resolve
 from durer.rendering.units import prepare, render_unit
@@ -59,8 +61,12 @@ def test_blend_weights_are_the_mse_optimal_ones():
     v = s2 / (samples - 1)
     b2 = (d - n) ** 2 - v
     w = b2 / (b2 + v)
-    out = blend(denoised, noisy, moment, samples, radius=0)
+    out = blend(denoised, noisy, moment, samples, radius=0, scale=1.0)
     np.testing.assert_allclose(out[0, 0], [d + w * (n - d), 1.0, 1.0], rtol=1e-12)
+    v2 = 2 * v  # durer's scale: the variance doubled
+    w2 = ((d - n) ** 2 - v2) / (d - n) ** 2
+    np.testing.assert_allclose(blend(denoised, noisy, moment, samples, radius=0, scale=2.0)[0, 0, 0],
+                               d + w2 * (n - d), rtol=1e-12)
     # a difference the noise explains keeps the denoised value; no noise at all keeps the noisy one
     np.testing.assert_array_equal(blend(denoised, noisy, noisy ** 2 + 1.0, samples, radius=0), denoised)
     np.testing.assert_allclose(blend(denoised, noisy, noisy ** 2, samples, radius=0), noisy)
@@ -81,3 +87,24 @@ def test_blend_keeps_an_unbiased_denoisers_output_and_undoes_a_biased_one():
     wrong = np.full_like(truth, 3.0)
     undone = blend(wrong, noisy, moment, samples)
     assert np.abs(undone - noisy).max() < 0.05 * np.abs(wrong - noisy).max()
+
+
+def test_a_denoised_render_blends_with_its_own_noisy_colour_and_moment(monkeypatch):
+    """render(denoise=True) hands blend OIDN's output, the box-filtered noisy colour less the emission, the film's
+    second moment and the sample count, and its colour is the blended image refiltered plus the emission."""
+    pytest.importorskip("pyoidn")
+    calls = []
+
+    def spy(denoised, noisy, moment, samples, *args, **kwargs):
+        calls.append((noisy.copy(), moment.copy(), samples))
+        return np.zeros_like(denoised)
+
+    monkeypatch.setattr(denoise_module, "blend", spy)
+    scene = durer.load(EXAMPLES / "cornell_box.xml")
+    d = durer.render(scene, 12, 10, samples=4, denoise=True)
+    box = durer.render(scene, 12, 10, samples=4, aovs=True)
+    (noisy, moment, samples), = calls
+    assert samples == 4
+    np.testing.assert_allclose(noisy, box.color - box.emission, rtol=1e-6, atol=1e-7)
+    assert (moment >= noisy ** 2 * (1 - 1e-5) - 1e-7).all() and (moment > noisy ** 2 + 1e-6).any()
+    np.testing.assert_allclose(d.color, box.emission, rtol=1e-6)  # the spy's zeros plus the emission

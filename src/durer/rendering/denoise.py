@@ -42,6 +42,7 @@ SPLIT = ("emission",)  # RenderResult outputs kept out of OIDN's input and added
 PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of the denoiser's input (module docstring)
 MOMENT = "second_moment"  # a denoised render's output: each pixel's mean of the squared denoiser input (blend)
 BLEND_RADIUS = 3  # blend's window: the squared differences and variances are averaged over 7 x 7 pixels
+BLEND_SCALE = 2.0  # blend's variance factor: scale 1 raised the Cornell box's error 0.3% (benchmarks/README.md)
 QUADRATURE = 64  # pixel_weights' points per pixel side (the midpoint rule within 0.05% on the gaussian)
 
 
@@ -121,13 +122,13 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean:
 
 
 def blend(denoised: np.ndarray, noisy: np.ndarray, moment: np.ndarray, samples: int,
-          radius: int = BLEND_RADIUS, scale: float = 1.0) -> np.ndarray:
+          radius: int = BLEND_RADIUS, scale: float = BLEND_SCALE) -> np.ndarray:
     """The denoised image (H, W, 3) moved toward the noisy one where it differs from it by more than the noise
     of the pixel's own samples explains: the noisy pixel's variance v (of its mean, from the second moment of its
-    `samples` box-filtered samples) against the denoiser's bias b^2 = max(0, (denoised - noisy)^2 - v), both
-    averaged over the (2 radius + 1)^2 window around the pixel and summed over channels; the MSE-optimal weight of
-    the noisy pixel, b^2 / (b^2 + v), for two estimates with independent errors of those sizes. `scale` multiplies
-    v (an experiment's knob)."""
+    `samples` box-filtered samples, times `scale`) against the denoiser's bias b^2 = max(0, (denoised - noisy)^2 -
+    v), both averaged over the (2 radius + 1)^2 window around the pixel and summed over channels; the MSE-optimal
+    weight of the noisy pixel, b^2 / (b^2 + v), for two estimates with independent errors of those sizes. A scale
+    above 1 leaves alone the differences that a 16-sample variance estimate may underrate."""
     if samples < 2:
         return denoised
     noisy = np.maximum(np.nan_to_num(noisy, posinf=0.0), 0.0)
