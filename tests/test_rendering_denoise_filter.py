@@ -13,7 +13,7 @@ import pytest
 import durer
 from durer.options import RenderOptions
 from durer.rendering import film
-from durer.rendering.denoise import denoise, pixel_weights, refilter
+from durer.rendering.denoise import MOMENT, blend, denoise, pixel_weights, refilter
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 GAUSSIAN = {"filter": "mitsuba_gaussian", "filter_radius": 0.5}  # Mitsuba's default: sigma 0.5, zero at 4 sigma
@@ -68,7 +68,8 @@ def test_refilter_is_the_films_filter_on_an_image_constant_over_each_pixel():
 def test_a_denoised_renders_inputs_are_box_filtered_and_its_emission_is_the_scenes():
     """Cornell box with Mitsuba's gaussian: a denoised render's albedo is the box-filtered render's, its emission
     the gaussian-filtered render's (the same samples, to the bit), and its colour OIDN's output on the box-filtered
-    colour less the emission, refiltered by the gaussian, plus that emission."""
+    colour less the emission, blended with that colour by its variance (denoise.blend), refiltered by the
+    gaussian, plus that emission."""
     pytest.importorskip("pyoidn")
     cornell = durer.load(EXAMPLES / "cornell_box.xml")
     d = durer.render(cornell, 24, 20, samples=4, denoise=True, **GAUSSIAN)
@@ -79,8 +80,10 @@ def test_a_denoised_renders_inputs_are_box_filtered_and_its_emission_is_the_scen
     np.testing.assert_array_equal(d.emission, scene.emission)
     assert d.emission.max() > 1  # the light is in view
     assert not np.array_equal(scene.emission, box.emission)
-    expected = refilter(denoise(box.color - box.emission, box.albedo, box.shading_normals).color,
-                        RenderOptions(**GAUSSIAN)) + scene.emission
+    noisy = box.color - box.emission
+    oidn = denoise(noisy, box.albedo, box.shading_normals).color
+    blended = blend(oidn, noisy, d.aovs[MOMENT], 4)
+    expected = refilter(blended, RenderOptions(**GAUSSIAN)) + scene.emission
     np.testing.assert_allclose(d.color, expected, rtol=1e-4, atol=1e-5)
 
 

@@ -65,15 +65,19 @@ def resolve(scene: Scene, width: int | None = None, height: int | None = None, o
 
 def denoise_result(result: RenderResult, materials: Sequence, options: RenderOptions) -> RenderResult:
     """Replace the colour of a render with options.denoise (box-filtered, the directly seen emission left out:
-    rendering/denoise.py) by OIDN's output (with the albedo and normal features) filtered by the scene's filter,
-    plus that emission (filmed by the scene's filter); in place. `materials`: the scene's (a compiled bundle's),
-    which say whether the features are clean."""
-    from .denoise import clean_features, denoise, refilter, split_part
+    rendering/denoise.py) by OIDN's output (with the albedo and normal features), blended with the noisy colour
+    where it strays beyond the noise (denoise.blend), filtered by the scene's filter, plus that emission (filmed by
+    the scene's filter); in place. `materials`: the scene's (a compiled bundle's), which say whether the features
+    are clean."""
+    from .denoise import MOMENT, blend, clean_features, denoise, refilter, split_part
 
     done = denoise(result.color, result.albedo, result.shading_normals,
                    clean=clean_features(materials, options.integrator == "path"), quality=options.denoise_quality)
     start = time.perf_counter()
-    color, direct = refilter(done.color, options), split_part(result.aovs)
+    color = done.color
+    if result.aovs.get(MOMENT) is not None:
+        color = blend(color, result.color, result.aovs[MOMENT], options.samples)
+    color, direct = refilter(color, options), split_part(result.aovs)
     result.color = color if direct is None else color + np.nan_to_num(direct, posinf=0.0)
     result.denoise_seconds = done.seconds + time.perf_counter() - start
     return result

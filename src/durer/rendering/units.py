@@ -49,7 +49,7 @@ from ..scene.cameras import image_camera
 from ..scene.graph import Scene
 from . import film
 from .context import RenderContext, SampleResult, make_context
-from .denoise import PIXEL_FILTER, SPLIT
+from .denoise import MOMENT, PIXEL_FILTER, SPLIT
 from .hit_aovs import WIDTH as HIT_WIDTH
 from .hit_aovs import hit_points
 from .integrators import Integrator, integrator_for
@@ -301,43 +301,25 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     sample = np.tile(np.arange(samples.start, samples.stop), halo.pixels)
     origins, directions, valid = film.camera_rays(job.camera, points, width, height, options, pixel, sample)
     n = len(points)
-    color = np.empty((n, 3))
-    color[:] = job.ctx.bundle.background  # film points without a ray (outside a fisheye's circle)
     t, normal = np.full(n, np.inf), np.zeros((n, 3))
-    aovs: dict[str, np.ndarray] = {}
-    if options.alpha:  # coverage: 1 where the camera ray hit something, filtered like the colour
-        aovs["alpha"] = np.zeros((n, 1))
     idx = np.flatnonzero(valid)
     every = len(idx) == n
     step = _batch(job.integrator, len(idx), halo)
+    out = None
     for lo in range(0, len(idx), step):
         sel = slice(lo, min(n, lo + step)) if every else idx[lo:lo + step]
         res: SampleResult = job.integrator.trace(job.ctx, origins[sel], directions[sel], job.camera.t_min,
                                                  pixel=pixel[sel], sample=sample[sel])
-        color[sel], t[sel], normal[sel] = res.color, res.t, res.normal
-        for f in fields(res):
-            value = getattr(res, f.name)
-            if f.name in BASE or value is None:
-                continue
-            value = np.asarray(value, dtype=np.float64).reshape(len(res.t), -1)
-            if f.name not in aovs:
-                aovs[f.name] = np.zeros((n, value.shape[1]))
-            aovs[f.name][sel] = value
-    if options.alpha:
-        aovs["alpha"][:, 0] = np.isfinite(t)
-    split = [name for name in SPLIT if name in aovs] if options.denoise else []
-    if split:  # the denoiser's input: the colour without the split part, box-filtered (module docstring)
-        color = color - sum(aovs[name] for name in split)
-        aovs = {**{k: v for k, v in aovs.items() if k not in split}, **{k: aovs[k] for k in split}}
-    channels = (("color", 3),) + tuple((name, a.shape[1]) for name, a in aovs.items())
-    channels += ((SPLIT_WEIGHT, 1),) if split else ()
-    acc = Accumulators.zeros(tile, channels, HIT_WIDTH if options.hit_aovs else 0)
-    values = np.concatenate([color, *aovs.values()], axis=1) if aovs else color
+        t[sel], normal[sel] = res.t, res.normal
+        out = out or _Values(res, n, every, job.ctx.bundle.background, options)
+        out.put(sel, res)
+    out = (out or _Values(None, n, every, job.ctx.bundle.background, options)).done(t)
+    acc = Accumulators.zeros(tile, out.channels, HIT_WIDTH if options.hit_aovs else 0)
     sums, weight = acc.sums.reshape(tile.pixels, -1), acc.weight.reshape(-1)
     if options.denoise:
-        _gather_denoised(points, values, sum(aovs[k].shape[1] for k in split), m, halo, tile, job, sums, weight)
+        _gather_denoised(points, out.inputs, out.part, m, halo, tile, job, sums, weight)
     else:
-        film.gather(points, values, m, halo.rect, tile.rect, width, height, options, sums, weight)
+        film.gather(points, out.inputs, m, halo.rect, tile.rect, width, height, options, sums, weight)
     centre = _nearest(points, t, normal, m, halo, tile, height, acc)
     if options.hit_aovs:
         acc.surface[:] = hit_points(job.ctx, origins[centre], directions[centre], job.camera.t_min,
@@ -345,20 +327,67 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     return acc
 
 
-def _gather_denoised(points, values, k: int, m: int, halo: Tile, tile: Tile, job: Job, sums: np.ndarray,
-                     weight: np.ndarray) -> None:
-    """film.gather for a denoised render: the denoiser's inputs (every channel but the last k) by the one-pixel box,
-    the last k (the split part, added back after denoising) by the scene's filter, into sums[:, -k-1:-1] with its
-    weights' sum in the last column (SPLIT_WEIGHT)."""
-    o, width, height = job.options, job.width, job.height
+class _Values:
+    """A unit's per-sample values as the film reads them, each integrator result copied once, batch by batch, into
+    `inputs` (n, C): the colour, then alpha (options.alpha) and each other output of SampleResult in its order (the
+    channels of Accumulators); for a denoised render the colour less the split part (SPLIT), the outputs but the
+    split ones, the squared colour (MOMENT), and the split part in `part` (n, k) of its own. One array each, no
+    concatenation: the film's copies were most of the features' cost (benchmarks/README.md)."""
+
+    def __init__(self, res: SampleResult | None, n: int, every: bool, background, options: RenderOptions):
+        given = {} if res is None else {f.name: getattr(res, f.name) for f in fields(res) if f.name not in BASE}
+        found = [(name, np.reshape(v, (len(res.t), -1)).shape[1]) for name, v in given.items() if v is not None]
+        self.split = [(s, k) for s in SPLIT for name, k in found if s == name] if options.denoise else []
+        own = [("alpha", 1)] * bool(options.alpha) + [a for a in found if a not in self.split]
+        own += [(MOMENT, 3)] * bool(options.denoise)
+        self.channels = (("color", 3), *own, *self.split) + ((SPLIT_WEIGHT, 1),) * bool(self.split)
+        self.at, lo = {}, 3
+        for name, k in own:
+            self.at[name], lo = slice(lo, lo + k), lo + k
+        make = np.empty if every else np.zeros
+        self.inputs = make((n, lo))
+        self.part = make((n, sum(k for _, k in self.split)))
+        if not every:
+            self.inputs[:, :3] = background  # film points without a ray (outside a fisheye's circle)
+        self.alpha, self.moment = options.alpha, options.denoise
+
+    def put(self, sel, res: SampleResult) -> None:
+        """Copy one batch's results (rays `sel` of the unit) into place."""
+        n, lo = len(res.t), 0
+        values = {name: np.asarray(getattr(res, name), dtype=np.float64).reshape(n, -1)
+                  for name in (*self.at, *(s for s, _ in self.split)) if name not in ("alpha", MOMENT)}
+        for name, k in self.split:
+            self.part[sel, lo:lo + k], lo = values[name], lo + k
+        split = sum(values[name] for name, _ in self.split) if self.split else 0.0
+        self.inputs[sel, :3] = res.color - split if self.split else res.color
+        for name, value in values.items():
+            if name in self.at:
+                self.inputs[sel, self.at[name]] = value
+
+    def done(self, t: np.ndarray) -> _Values:
+        """Fill the channels computed from the others: alpha (coverage: 1 where the camera ray hit something) and
+        the squared colour."""
+        if self.alpha:
+            self.inputs[:, self.at["alpha"]] = np.isfinite(t)[:, None]
+        if self.moment:
+            np.multiply(self.inputs[:, :3], self.inputs[:, :3], out=self.inputs[:, self.at[MOMENT]])
+        return self
+
+
+def _gather_denoised(points, inputs: np.ndarray, part: np.ndarray, m: int, halo: Tile, tile: Tile, job: Job,
+                     sums: np.ndarray, weight: np.ndarray) -> None:
+    """film.gather for a denoised render: the denoiser's inputs by the one-pixel box, the split part (added back
+    after denoising) by the scene's filter, into sums[:, -k-1:-1] with its weights' sum in the last column
+    (SPLIT_WEIGHT)."""
+    o, width, height, k = job.options, job.width, job.height, part.shape[1]
     box = replace(o, **PIXEL_FILTER)
-    own = np.zeros((tile.pixels, values.shape[1] - k))
-    film.gather(points, values[:, :values.shape[1] - k], m, halo.rect, tile.rect, width, height, box, own, weight)
+    own = np.zeros((tile.pixels, inputs.shape[1]))
+    film.gather(points, inputs, m, halo.rect, tile.rect, width, height, box, own, weight)
     sums[:, :own.shape[1]] = own
     if k:
-        part, wsum = np.zeros((tile.pixels, k)), np.zeros(tile.pixels)
-        film.gather(points, values[:, -k:], m, halo.rect, tile.rect, width, height, o, part, wsum)
-        sums[:, -k - 1:-1], sums[:, -1] = part, wsum
+        split, wsum = np.zeros((tile.pixels, k)), np.zeros(tile.pixels)
+        film.gather(points, part, m, halo.rect, tile.rect, width, height, o, split, wsum)
+        sums[:, -k - 1:-1], sums[:, -1] = split, wsum
 
 
 def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc: Accumulators) -> np.ndarray:
