@@ -10,6 +10,8 @@ from pathlib import Path
 import numba
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import durer
 from durer.options import RenderOptions
@@ -26,6 +28,28 @@ CASES = {  # integrator -> scene and options (every filter with a support radius
     "path": ("cornell_box.xml", dict(samples=3, max_depth=4)),
 }
 FILTERS = [("box", 0.5), ("tent", 1.5), ("gaussian", 0.5), ("mitchell", 2.0)]
+
+
+@settings(deadline=None)
+@given(st.integers(1, 400), st.integers(1, 400), st.integers(1, 300))
+def test_tiles_cover_the_image_in_the_fewest_even_pieces(width, height, side):
+    """Every pixel in exactly one tile, no tile over side, the fewest tiles per axis that allows, and tiles that
+    differ by less than a 4-pixel step (but at the last one): the units threads share are of equal work."""
+    tiles = U.tiles(width, height, side)
+    cover = np.zeros((height, width), int)
+    for t in tiles:
+        assert 0 < t.rows <= side and 0 < t.cols <= side
+        cover[t.row:t.row + t.rows, t.col:t.col + t.cols] += 1
+    assert (cover == 1).all()
+    for extent, size in ((height, {t.row: t.rows for t in tiles}), (width, {t.col: t.cols for t in tiles})):
+        assert len(size) == -(-extent // side)
+        inner = [size[k] for k in sorted(size)][:-1]
+        assert not inner or (max(inner) == min(inner) and max(inner) - size[max(size)] < len(size) * 4)
+
+
+def test_a_row_just_over_the_tile_side_is_cut_in_halves():
+    """128 columns at the radius-1 filter's 124-pixel side: two 64-column tiles, not 124 and 4."""
+    assert [(t.col, t.cols) for t in U.tiles(128, 96, 124)] == [(0, 64), (64, 64)]
 
 
 def _job(name: str, filt: tuple[str, float]) -> U.Job:

@@ -109,9 +109,15 @@ def plan(samples: int, radius: int) -> tuple[int, int]:
 
 
 def tiles(width: int, height: int, side: int) -> list[Tile]:
-    """The image cut into side x side tiles (smaller at the right and bottom edges), row-major."""
-    return [Tile(r, c, min(side, height - r), min(side, width - c))
-            for r in range(0, height, side) for c in range(0, width, side)]
+    """The image cut into tiles at most side x side, row-major: as few per axis as that allows, and as even as
+    whole multiples of 4 allow (of 1 where side is not one), so the units threads share are of equal work (a
+    128-pixel row cut at 124 would give one thread 124 columns and the other 4)."""
+    def step(extent: int) -> int:
+        even = -(-extent // -(-extent // side))  # ceil(extent / the fewest pieces of at most side)
+        return -(-even // TILE) * TILE if side % TILE == 0 else even
+    rows, cols = step(height), step(width)
+    return [Tile(r, c, min(rows, height - r), min(cols, width - c))
+            for r in range(0, height, rows) for c in range(0, width, cols)]
 
 
 @dataclass
