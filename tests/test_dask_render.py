@@ -170,7 +170,7 @@ def test_turntable_orbits_the_look_at_point_about_the_vertical(scenes):
 def test_small_images_are_cut_into_enough_tasks_for_the_cluster(scenes):
     _, kw = CASES["path"]
     job = durer_dask.prepare_job(scenes["path"], 128, 128, **{**kw, "samples": 16, "filter": "box", "filter_radius": 0.5})
-    assert len(job.units()) == 1  # units.plan: one 128 x 128 tile
+    assert len(job.units()) < 8  # a small image has few tiles (units.job_for: one or two per local thread)
     split = durer_dask.split_for(job, threads=2)
     assert len(split.units()) >= 8 and split.tile_side % 4 == 0
     assert durer_dask.split_for(job, threads=2, frames=8).tile_side == job.tile_side  # frames are tasks too

@@ -302,3 +302,14 @@ def test_fisheye_tiles_with_rays_outside_the_circle():
         got = U.finish(job, U.run(dataclasses.replace(job, tile_side=side)))
         np.testing.assert_array_equal(got.color, want.color)
         np.testing.assert_array_equal(got.depth, want.depth)
+
+
+def test_a_small_box_filtered_image_is_cut_for_every_thread():
+    """A 128 x 128 box-filtered render (one tile by the memory plan) is cut into UNITS_PER_THREAD tiles per
+    thread, none under MIN_SHARED_SIDE; a haloed filter keeps the planned side (its halo would cost rays)."""
+    scene = durer.load(EXAMPLES / "cornell_box.xml")
+    box = U.prepare(scene, 128, 128, make_options(samples=16, integrator="path", filter="box", filter_radius=0.5))
+    assert U.plan(16, 0)[0] >= 128 and box.tile_side >= U.MIN_SHARED_SIDE
+    assert len(box.tiles()) >= min(U.UNITS_PER_THREAD * numba.get_num_threads(), (128 // U.MIN_SHARED_SIDE) ** 2)
+    tent = U.prepare(scene, 128, 128, make_options(samples=16, integrator="path", filter="tent", filter_radius=1.5))
+    assert tent.tile_side == U.plan(16, 1)[0]

@@ -75,7 +75,7 @@ def _unit(job: Job, camera, tile: Tile, samples: range) -> Accumulators:
 
 def split_for(job: Job, threads: int, frames: int = 1, per_thread: int = TASKS_PER_THREAD) -> Job:
     """The job with tiles halved (down to 4 pixels) until there are `per_thread` tasks for each of the cluster's
-    `threads` (units.plan's tiles may be few: one for a 128 x 128 image at 16 spp). Never changes the image."""
+    `threads` (a small image's tiles are few: units.job_for cuts for the local threads). Never changes the image."""
     while len(job.units()) * frames < per_thread * threads and job.tile_side > 4:
         job = dataclasses.replace(job, tile_side=max(4, job.tile_side // 2 // 4 * 4))
     return job

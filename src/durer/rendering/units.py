@@ -58,6 +58,8 @@ from .result import RenderResult
 UNIT_SAMPLES = 1 << 18  # samples a unit traces (halo included) when the tile can be that small: its memory bound
 PASS = 4096             # samples per pixel of one pass of the canonical decomposition
 MAX_TILE = 256          # tile side at most: enough units for two workers and a live progress bar
+UNITS_PER_THREAD = 2    # a box-filtered image is cut into at least this many tiles per thread where it is large enough
+MIN_SHARED_SIDE = 32    # ... but not into tiles under this side: a unit's fixed costs would show
 HALO_SIDES = 32         # a tile is at least this many filter radii wide: ((32 + 2) / 32)^2 = 1.13x the rays at most
 BASE = ("color", "t", "normal")  # SampleResult's own fields; any other non-None (N,k) field is an AOV
 SPLIT_WEIGHT = "split_weight"  # a denoised render's channel: the scene filter's weights of the split part's samples
@@ -169,6 +171,18 @@ class Job:
         return passes
 
 
+def _shared_side(side: int, width: int, height: int) -> int:
+    """A haloless (box-filtered) image's tile side, halved (to multiples of TILE, not below MIN_SHARED_SIDE) until
+    the image has UNITS_PER_THREAD tiles per Numba thread: a small image is then several units whose Python and
+    NumPy steps overlap on the unit threads instead of one unit whose kernels alone run in parallel (128 x 128
+    box-filtered Mitsuba scenes at 16 spp: 0.72-0.89x the wall time; the image is the same to the bit). Haloed
+    tiles are left as planned: their halo's extra rays cost what the overlap saves."""
+    want = UNITS_PER_THREAD * nb.get_num_threads()
+    while side > MIN_SHARED_SIDE and len(tiles(int(width), int(height), side)) < want:
+        side = max(MIN_SHARED_SIDE, side // 2 // TILE * TILE)
+    return side
+
+
 def job_for(ctx: RenderContext, width: int, height: int) -> Job:
     """The Job of a context (the preview renders many views of one compiled scene: ctx.camera is the one used):
     plan the units, frame the camera, choose the integrator and gather its inputs (Integrator.prepare)."""
@@ -178,6 +192,8 @@ def job_for(ctx: RenderContext, width: int, height: int) -> Job:
         # -stats counts the rays cast: halo samples traced again by a neighbouring tile would count twice, so a
         # counted render with a wide filter is one tile (the course's images are small)
         side = max(width, height)
+    elif not film.support_radius(options):
+        side = _shared_side(side, *(options.crop[2:] if options.crop is not None else (width, height)))
     camera = image_camera(ctx.camera, width, height)  # a model's framed camera fits this image's shape
     integrator = integrator_for(options)
     if integrator.prepare is not None:
