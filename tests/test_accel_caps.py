@@ -115,6 +115,19 @@ def test_instances_of_an_open_mesh_share_its_cap():
     np.testing.assert_array_equal(s.compute_occupancy(p) > 0.5, _exact_inside(index, p))
 
 
+def test_the_scene_counts_its_caps_memory_once_built():
+    """The caps' index is built by the first inside test on an open mesh, and the scene's memory (its repr) counts
+    it from then on: caps_nbytes is 0 before, and the caps' own tree, placements and moments after."""
+    t = _torus()
+    s = _scene(_tris(t, np.arange(len(t.faces)) % 7 != 2))
+    s.compute_occupancy(np.zeros((1, 3), np.float32) + 5.0)  # outside, far: the scene and its index are built
+    index = s._distance_index()
+    index._caps = False  # as before any inside test that needed them
+    assert index.caps_nbytes == 0
+    caps = index.caps
+    assert index.caps_nbytes == caps.tree.nbytes + caps.nbytes + caps.moments_nbytes > caps.tree.nbytes > 0
+
+
 def test_large_caps_keep_the_winding_rule():
     """A soup of disjoint triangles: its cap would be three times its size, so the winding rule decides."""
     rng = np.random.default_rng(2)

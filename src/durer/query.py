@@ -454,7 +454,8 @@ class RaycastingScene:
         if self._bvh is None:
             memory = "not built yet"
         else:
-            extra = self._distance.nbytes + self._distance.moments_nbytes if self._distance is not None else 0
+            d = self._distance
+            extra = d.nbytes + d.moments_nbytes + d.caps_nbytes if d is not None else 0
             memory = f"{(self._bvh.nbytes + extra) / 2**20:.1f} MiB"
         return (f"RaycastingScene({len(self._instances)} geometries: {meshes} meshes, "
                 f"{len(self._instances) - meshes} spheres; {tris:,} triangles ({stored:,} stored); {memory})")

@@ -339,3 +339,10 @@ class DistanceIndex:
     @property
     def moments_nbytes(self) -> int:
         return 0 if self._moments is None else self._moments.nbytes
+
+    @property
+    def caps_nbytes(self) -> int:
+        """Bytes of the caps' index once an inside test on open meshes built it: its own tree (no accelerator shares
+        it, unlike the meshes'), placements and far-field moments."""
+        caps = getattr(self, "_caps", None)
+        return 0 if not caps else caps.tree.nbytes + caps.nbytes + caps.moments_nbytes
