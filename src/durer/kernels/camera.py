@@ -1,6 +1,6 @@
-"""The pinhole perspective camera's rays in one pass (Numba): PerspectiveCamera.generate_rays' NumPy expression
-evaluated per ray in the same order (no fused multiply-add: Numba's default contracts none), so the rays are the
-same to the bit, without its eight temporary (N, 3) arrays and the norm's reduction (rendering/film.camera_rays)."""
+"""The pinhole perspective camera's rays in one pass (Numba), for PerspectiveCamera.generate_rays: per ray,
+d = direction + (sx extent) horizontal + (sy extent) up over its length, in NumPy's order of operations (no fused
+multiply-add: Numba's default contracts none), without eight temporary (N, 3) arrays and a norm's reduction."""
 
 from __future__ import annotations
 

@@ -41,9 +41,7 @@ import math
 import numba as nb
 import numpy as np
 
-from ..kernels.camera import perspective_rays
 from ..options import RenderOptions
-from ..scene.cameras import PerspectiveCamera
 from .integrators import integrator_for
 from .sampling import PIXEL_KEY, key, sobol_pair
 
@@ -175,15 +173,6 @@ def camera_rays(camera, points: np.ndarray, width: int, height: int, options: Re
     with aperture samples for a thin lens (PerspectiveCamera.aperture_radius > 0)."""
     if getattr(camera, "aperture_radius", 0.0) > 0:
         return camera.generate_rays(points, width, height, lens_samples(options, pixel, sample))
-    if type(camera) is PerspectiveCamera:  # the pinhole in one Numba pass: the same rays to the bit
-        n = len(points)
-        origins, directions = np.empty((n, 3)), np.empty((n, 3))
-        extent = 2.0 * np.tan(np.radians(camera.angle) / 2.0)
-        frame = (np.asarray(v, dtype=np.float64) for v in (camera.center, camera.direction, camera.horizontal,
-                                                            camera.up))
-        perspective_rays(np.ascontiguousarray(points, dtype=np.float64), int(width), int(height), *frame,
-                         float(extent), origins, directions)
-        return origins, directions, np.ones(n, dtype=bool)
     return camera.generate_rays(points, width, height)
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..kernels.camera import perspective_rays
 from .values import tame, unit
 
 
@@ -152,11 +153,17 @@ class PerspectiveCamera:
         self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
 
     def generate_rays(self, points: np.ndarray, width: int, height: int, lens: np.ndarray | None = None):
-        sx, sy = _film_offsets(points, width, height)
+        """Rays through film points (..., 2): origins, unit directions (..., 3) and a validity mask (all True).
+        The pinhole's rays come from one Numba pass (kernels/camera.perspective_rays: no temporary arrays; the
+        image's rays are a large share of a small render's time), then the thin lens moves their origins."""
+        p = np.asarray(points, dtype=np.float64)
+        shape = p.shape[:-1]
+        flat = np.ascontiguousarray(p.reshape(-1, 2))
+        origins, d = np.empty((len(flat), 3)), np.empty((len(flat), 3))
         extent = 2.0 * np.tan(np.radians(self.angle) / 2.0)
-        d = self.direction + (sx * extent)[..., None] * self.horizontal + (sy * extent)[..., None] * self.up
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        origins = np.broadcast_to(self.center, d.shape).copy()
+        frame = (np.asarray(v, dtype=np.float64) for v in (self.center, self.direction, self.horizontal, self.up))
+        perspective_rays(flat, int(width), int(height), *frame, float(extent), origins, d)
+        origins, d = origins.reshape(shape + (3,)), d.reshape(shape + (3,))
         if self.aperture_radius > 0 and lens is not None:
             ax, ay = concentric_disk(np.asarray(lens, dtype=np.float64).reshape(d.shape[:-1] + (2,)))
             focus = origins + d * (self.focus_distance / (d @ self.direction))[..., None]
@@ -164,7 +171,7 @@ class PerspectiveCamera:
             origins += (self.aperture_radius * ay)[..., None] * self.up
             d = focus - origins
             d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        return origins, d, np.ones(sx.shape, dtype=bool)
+        return origins, d, np.ones(shape, dtype=bool)
 
     def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
         """World points (..., 3) -> film points (..., 2) in pixels through the pinhole, and a mask of the points
