@@ -6,6 +6,7 @@ the scene."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import gc
 
 import numpy as np
@@ -123,3 +124,34 @@ def test_counted_renders_and_unreadable_scenes_are_built_every_time(compiles):
     a, b = _render(s), _render(s)
     assert compiles[0] == 4
     np.testing.assert_array_equal(a, b)
+
+
+class _ReadOptions:
+    """RenderOptions that records which of its fields are read."""
+
+    def __init__(self, options):
+        self._options, self.read = options, set()
+
+    def __getattr__(self, name):
+        self.read.add(name)
+        return getattr(self._options, name)
+
+
+@pytest.mark.parametrize("kw", [dict(integrator="path"), dict(integrator="whitted"),
+                                dict(integrator="path", course_edges=True), dict(integrator="path", accel="brute")])
+def test_a_build_reads_only_the_options_of_its_key(kw):
+    """A kept build is reused for any render whose build_key is equal, so the build must not depend on any other
+    option (a new option read while building must join the key: context.BUILD_OPTIONS), and each option it reads
+    changes the key, except the two whose renders make_context never keeps (stats, grid)."""
+    from durer.options import RenderOptions
+    from durer.rendering import context
+
+    options = RenderOptions(samples=2, max_depth=3, seed=3, **kw)
+    spy = _ReadOptions(options)
+    context._build(_scene(), spy)
+    assert spy.read and spy.read <= set(context.BUILD_OPTIONS)
+    other = {"course_edges": not options.course_edges, "accel": "bvh" if options.accel == "brute" else "brute",
+             "integrator": "whitted" if options.integrator == "path" else "path"}
+    for name, value in other.items():
+        assert context.build_key(dataclasses.replace(options, **{name: value})) != context.build_key(options), name
+    assert set(context.BUILD_OPTIONS) - set(other) == {"stats", "grid"}

@@ -5,7 +5,8 @@ once in load_file.
 "Did not change" is the scene's content fingerprint (scene/fingerprint.py: every attribute, list and array
 reachable from it, arrays by their bytes, so in-place edits of NumPy arrays count), taken at every render and
 compared with the one the build was made from; the camera is left out (a build does not read it: a new camera
-is a new view of the same build). Not detected: changes the fingerprint cannot see (files on disk a scene
+is a new view of the same build). A kept build also serves only renders with the same build options
+(context.build_key). Not detected: changes the fingerprint cannot see (files on disk a scene
 object names but has not read; an array changed by another thread while a render runs). A scene holding
 something the fingerprint cannot read (e.g. a lambda) is rebuilt every render, as before.
 

@@ -79,9 +79,19 @@ def make_context(scene: Scene, options: RenderOptions) -> RenderContext:
     if options.stats or options.grid is not None:  # counters of this render's rays; the course's grid is cheap
         bundle, accel, derived = *_build(scene, options), {}
     else:
-        key = (options.course_edges, options.integrator == "path", options.accel)
-        bundle, accel, derived = kept_build(scene, key, lambda: (*_build(scene, options), {}))
+        bundle, accel, derived = kept_build(scene, build_key(options), lambda: (*_build(scene, options), {}))
     return RenderContext(bundle=bundle, camera=scene.camera, accel=accel, options=options, derived=derived)
+
+
+# The options _build reads (itself and through compile_bundle): a kept build is reused only for the same values, so
+# an option read there must be added here, or renders with another value get a stale build
+# (tests/test_rendering_context.py checks that _build reads no other option).
+BUILD_OPTIONS = ("course_edges", "integrator", "accel", "stats", "grid")
+
+
+def build_key(options: RenderOptions) -> tuple:
+    """What a kept build must agree on with the render that wants it (stats and grid renders are never kept)."""
+    return options.course_edges, options.integrator == "path", options.accel
 
 
 def _build(scene: Scene, options: RenderOptions) -> tuple[SceneBundle, Accelerator]:
