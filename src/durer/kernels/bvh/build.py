@@ -100,7 +100,10 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
     """
     inf = np.inf
     bins = np.empty((3 * N_BINS, 6))         # per axis a and bin b, row a * N_BINS + b: lo xyz, hi xyz
+    bins[:, :3] = inf                        # empty; the sweep empties each bin it used again
+    bins[:, 3:] = -inf
     bin_cnt = np.zeros(3 * N_BINS, np.int64)
+    nz = np.empty(N_BINS, np.int64)          # one axis's non-empty bins
     right_area = np.empty(N_BINS)
     right_cnt = np.empty(N_BINS, np.int64)
     scale = np.zeros(3)
@@ -128,12 +131,6 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
             n_def += 1
             continue
         nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
-        for a in range(3):
-            for b in range(nbins):
-                row = a * N_BINS + b
-                bin_cnt[row] = 0
-                bins[row, 0] = bins[row, 1] = bins[row, 2] = inf
-                bins[row, 3] = bins[row, 4] = bins[row, 5] = -inf
         n_axes = 0
         for a in range(3):
             ext = fstack[sp, 3 + a] - fstack[sp, a]
@@ -161,37 +158,47 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
                     bins[row, 3] = max(bins[row, 3], x1)
                     bins[row, 4] = max(bins[row, 4], y1)
                     bins[row, 5] = max(bins[row, 5], z1)
-        # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the nbins-1 planes
+        # sweep the non-empty bins only (a plane after an empty bin costs what the plane before it does, and the
+        # strict < keeps the earlier: the same choice as sweeping every bin, for less work on the many small
+        # nodes): right-to-left accumulates the right side, left-to-right evaluates each plane; each bin used is
+        # emptied again on the way (bins start empty, see above)
         best_cost = inf
         best_axis = -1
         best_bin = 0
         for a in range(3):
-            if scale[a] == 0.0:
-                continue
             base = a * N_BINS
-            rl0 = rl1 = rl2 = inf
-            rh0 = rh1 = rh2 = -inf
-            rc = 0
-            for b in range(nbins - 1, 0, -1):
-                bb = bins[base + b]
-                rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
-                rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
-                rc += bin_cnt[base + b]
-                right_area[b] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
-                right_cnt[b] = rc
-            ll0 = ll1 = ll2 = inf
-            lh0 = lh1 = lh2 = -inf
-            lc = 0
-            for b in range(nbins - 1):
-                bb = bins[base + b]
-                ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
-                lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
-                lc += bin_cnt[base + b]
-                if lc == 0 or right_cnt[b + 1] == 0:
-                    continue
-                cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[b + 1] * right_cnt[b + 1]
-                if cost < best_cost:
-                    best_cost, best_axis, best_bin = cost, a, b
+            k = 0
+            for b in range(nbins):
+                if bin_cnt[base + b] > 0:
+                    nz[k] = b
+                    k += 1
+            if scale[a] != 0.0 and k > 1:
+                rl0 = rl1 = rl2 = inf
+                rh0 = rh1 = rh2 = -inf
+                rc = 0
+                for q in range(k - 1, 0, -1):
+                    bb = bins[base + nz[q]]
+                    rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
+                    rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
+                    rc += bin_cnt[base + nz[q]]
+                    right_area[q] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
+                    right_cnt[q] = rc
+                ll0 = ll1 = ll2 = inf
+                lh0 = lh1 = lh2 = -inf
+                lc = 0
+                for q in range(k - 1):
+                    bb = bins[base + nz[q]]
+                    ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
+                    lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
+                    lc += bin_cnt[base + nz[q]]
+                    cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[q + 1] * right_cnt[q + 1]
+                    if cost < best_cost:
+                        best_cost, best_axis, best_bin = cost, a, nz[q]
+            for q in range(k):
+                row = base + nz[q]
+                bin_cnt[row] = 0
+                bins[row, 0] = bins[row, 1] = bins[row, 2] = inf
+                bins[row, 3] = bins[row, 4] = bins[row, 5] = -inf
         parent_area = _area(box[node, 0], box[node, 1], box[node, 2], box[node, 3], box[node, 4], box[node, 5])
         leaf_cost = parent_area * cnt
         split_cost = parent_area * TRAVERSAL_COST + best_cost
