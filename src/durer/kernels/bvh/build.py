@@ -130,6 +130,8 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
                 deferred_cb[n_def, a] = fstack[sp, a]
             n_def += 1
             continue
+        if cnt <= 2 and cnt <= max_leaf:
+            continue  # a leaf: splitting costs 2 visits of this box and more, keeping it 2 tests of it (exact in float)
         nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
         n_axes = 0
         for a in range(3):
