@@ -132,7 +132,7 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
             continue
         if cnt <= 2 and cnt <= max_leaf:
             continue  # a leaf: splitting costs 2 visits of this box and more, keeping it 2 tests of it (exact in float)
-        nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
+        nbins = min(N_BINS if cnt >= 16 else 8, max(4, 2 * cnt))  # nodes of under 16 items: 8 bins or fewer
         n_axes = 0
         for a in range(3):
             ext = fstack[sp, 3 + a] - fstack[sp, a]
