@@ -361,7 +361,7 @@ def _collapse(box, left, right, start, count, bounds, child, src, depth):
     return nw, max_depth
 
 
-PARALLEL_BUILD = 100_000  # items from which build_wide_bvh builds subtrees on several threads
+PARALLEL_BUILD = 32_000  # items from which build_wide_bvh builds subtrees on several threads (the bunny, 69k, is)
 
 
 def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
