@@ -89,9 +89,9 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
     Returns the node number after the last used and the number of nodes deferred.
 
     Nodes: box, left/right (-1 for leaves), start/count into `order`. Each node bins its items' centroids into
-    N_BINS per axis (fewer, 2 per item, for nodes of under 8 items), sweeps the bins for the cheapest SAH split,
-    and becomes a leaf when that is cheaper (and it holds at most max_leaf items) or no split separates
-    centroids. The items' boxes and centroids are kept in node order (moved with the partition), so every pass
+    N_BINS per axis (8 for nodes of under 16 items, 2 per item under 4: as good a tree for less work), sweeps
+    the non-empty bins for the cheapest SAH split, and becomes a leaf when that is cheaper (and it holds at most
+    max_leaf items; always at 2 items) or no split separates centroids. The items' boxes and centroids are kept in node order (moved with the partition), so every pass
     reads memory contiguously, and each node makes two passes over its items: binning, and the partition, which
     also gives the children their boxes and centroid bounds (these ride on the stack until the child is built).
     With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in
