@@ -1,11 +1,14 @@
 """BVH construction (Numba): a binned-SAH binary tree, collapsed into the 4-wide layout of kernels/bvh/layout.py.
 
-Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently, each
-by the same kernel (build_nodes) working in place on its own rows of the shared arrays. The large arrays are
-allocated by NumPy and filled by the kernels (NumPy asks for huge pages; Numba's allocator does not).
+Large inputs build on several threads: the root serially, its two children's tops concurrently, then the subtrees
+below them concurrently, each by the same kernel (build_nodes) working in place on its own rows of the shared
+arrays. The large arrays are allocated by NumPy and filled by the kernels (NumPy asks for huge pages; Numba's
+allocator does not).
 """
 
 from __future__ import annotations
+
+from concurrent.futures import as_completed
 
 import numba as nb
 import numpy as np
@@ -91,12 +94,13 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
     Nodes: box, left/right (-1 for leaves), start/count into `order`. Each node bins its items' centroids into
     N_BINS per axis (8 for nodes of under 16 items, 2 per item under 4: as good a tree for less work), sweeps
     the non-empty bins for the cheapest SAH split, and becomes a leaf when that is cheaper (and it holds at most
-    max_leaf items; always at 2 items) or no split separates centroids. The items' boxes and centroids are kept in node order (moved with the partition), so every pass
-    reads memory contiguously, and each node makes two passes over its items: binning, and the partition, which
-    also gives the children their boxes and centroid bounds (these ride on the stack until the child is built).
-    With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in
-    deferred (node, first, end) and deferred_cb (its centroid bounds), so build_wide_bvh can build it (this
-    same kernel, in place, on another thread: each subtree touches only its own items and node rows).
+    max_leaf items; always at 2 items) or no split separates centroids. The items' boxes and centroids are kept
+    in node order (moved with the partition), so every pass reads memory contiguously, and each node makes two
+    passes over its items: binning, and the partition, which also gives the children their boxes and centroid
+    bounds (these ride on the stack until the child is built). With defer > 0, a node (other than the root) of
+    at most `defer` items is left unbuilt and listed in deferred (node, first, end) and deferred_cb (its
+    centroid bounds), so build_wide_bvh can build it (this same kernel, in place, on another thread: each
+    subtree touches only its own items and node rows).
     """
     inf = np.inf
     bins = np.empty((3 * N_BINS, 6))         # per axis a and bin b, row a * N_BINS + b: lo xyz, hi xyz
@@ -384,8 +388,9 @@ PARALLEL_BUILD = 32_000  # items from which build_wide_bvh builds subtrees on se
 def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring.
 
-    Large inputs on several threads: the top of the tree is built until its open nodes hold at most n / (4
-    threads) items each; those subtrees are then built concurrently, in place (each on its own items' rows of
+    Large inputs on several threads (_build_threaded): the top of the tree is built (the root's two children's
+    tops concurrently) until its open nodes hold at most n / (4 threads) items each; those subtrees are then
+    built concurrently, in place (each on its own items' rows of
     the shared item arrays, its nodes at rows reserved for it: 2k - 2 for k items; rows left unused are never
     linked, and collapse_bvh4 follows links only). Each subtree sees its items in the order the serial build
     would, so the tree is the same as the serial one's.
@@ -405,19 +410,40 @@ def build_wide_bvh_rows(ib: np.ndarray, root_box: np.ndarray, root_cb: np.ndarra
     if n < PARALLEL_BUILD or threads < 2:
         m, _ = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, 0, np.empty((0, 3), np.int64), np.empty((0, 6)))
     else:
-        deferred, deferred_cb = np.empty((n, 3), np.int64), np.empty((n, 6))
-        m, n_def = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, n // (4 * threads), deferred, deferred_cb)
-        sizes = deferred[:n_def, 2] - deferred[:n_def, 1]
-        offsets = m + np.concatenate([[0], np.cumsum(2 * sizes - 2)])
-        m = int(offsets[-1])
-        pool = thread_pool(threads)
-        futures = []
-        none = np.empty((0, 3), np.int64), np.empty((0, 6))
-        for k in np.argsort(-sizes, kind="stable"):  # the largest first
-            node, first, end = (int(x) for x in deferred[k])
-            futures.append(pool.submit(build_nodes, *arrays, node, first, end, deferred_cb[k],
-                                       int(offsets[k]), max_leaf, 0, *none))
-        for f in futures:
-            f.result()
+        m = _build_threaded(arrays, n, root_cb, max_leaf, threads)
     bounds, child, depth = collapse_bvh4(box[:m], left[:m], right[:m], start[:m], count[:m])
     return bounds, child, order, int(depth)
+
+
+def _build_threaded(arrays: tuple, n: int, root_cb: np.ndarray, max_leaf: int, threads: int) -> int:
+    """build_wide_bvh_rows' tree on `threads` threads: the root alone, then each of its two children's tops (down
+    to nodes of n / (4 threads) items) on a thread of its own, then, as each top is done, its subtrees. Every
+    node's rows are reserved below its parent's: 2k - 2 for a node of k items, which is what any binary tree over
+    them uses (a top with d unbuilt nodes and e one-item leaves uses 2(d + e) - 2 rows, its subtrees of s_i
+    items 2 s_i - 2 each). Returns the rows used (some unlinked)."""
+    pool = thread_pool(threads)
+    none = np.empty((0, 3), np.int64), np.empty((0, 6))
+    halves, halves_cb = np.empty((2, 3), np.int64), np.empty((2, 6))
+    m, n_half = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, n - 1, halves, halves_cb)
+    sizes = halves[:n_half, 2] - halves[:n_half, 1]
+    starts = m + np.concatenate([[0], np.cumsum(2 * sizes - 2)])
+
+    def top(k: int) -> tuple[int, np.ndarray, np.ndarray]:
+        node, first, end = (int(x) for x in halves[k])
+        deferred, deferred_cb = np.empty((end - first, 3), np.int64), np.empty((end - first, 6))
+        used, n_def = build_nodes(*arrays, node, first, end, halves_cb[k], int(starts[k]), max_leaf,
+                                  n // (4 * threads), deferred, deferred_cb)
+        return used, deferred[:n_def], deferred_cb[:n_def]
+
+    futures = []
+    for done in as_completed([pool.submit(top, k) for k in range(n_half)]):
+        used, deferred, deferred_cb = done.result()
+        sub = deferred[:, 2] - deferred[:, 1]
+        offsets = used + np.concatenate([[0], np.cumsum(2 * sub - 2)])
+        for k in np.argsort(-sub, kind="stable"):  # the largest first
+            node, first, end = (int(x) for x in deferred[k])
+            futures.append(pool.submit(build_nodes, *arrays, node, first, end, deferred_cb[k], int(offsets[k]),
+                                       max_leaf, 0, *none))
+    for f in futures:
+        f.result()
+    return int(starts[-1])
