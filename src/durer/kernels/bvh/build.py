@@ -1,11 +1,14 @@
 """BVH construction (Numba): a binned-SAH binary tree, collapsed into the 4-wide layout of kernels/bvh/layout.py.
 
-Large inputs build on several threads: the top of the tree serially, the subtrees below it concurrently, each
-by the same kernel (build_nodes) working in place on its own rows of the shared arrays. The large arrays are
-allocated by NumPy and filled by the kernels (NumPy asks for huge pages; Numba's allocator does not).
+Large inputs build on several threads: the root serially, its two children's tops concurrently, then the subtrees
+below them concurrently, each by the same kernel (build_nodes) working in place on its own rows of the shared
+arrays. The large arrays are allocated by NumPy and filled by the kernels (NumPy asks for huge pages; Numba's
+allocator does not).
 """
 
 from __future__ import annotations
+
+from concurrent.futures import as_completed
 
 import numba as nb
 import numpy as np
@@ -89,18 +92,22 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
     Returns the node number after the last used and the number of nodes deferred.
 
     Nodes: box, left/right (-1 for leaves), start/count into `order`. Each node bins its items' centroids into
-    N_BINS per axis (fewer, 2 per item, for nodes of under 8 items), sweeps the bins for the cheapest SAH split,
-    and becomes a leaf when that is cheaper (and it holds at most max_leaf items) or no split separates
-    centroids. The items' boxes and centroids are kept in node order (moved with the partition), so every pass
-    reads memory contiguously, and each node makes two passes over its items: binning, and the partition, which
-    also gives the children their boxes and centroid bounds (these ride on the stack until the child is built).
-    With defer > 0, a node (other than the root) of at most `defer` items is left unbuilt and listed in
-    deferred (node, first, end) and deferred_cb (its centroid bounds), so build_wide_bvh can build it (this
-    same kernel, in place, on another thread: each subtree touches only its own items and node rows).
+    N_BINS per axis (8 for nodes of under 16 items, 2 per item under 4: as good a tree for less work), sweeps
+    the non-empty bins for the cheapest SAH split, and becomes a leaf when that is cheaper (and it holds at most
+    max_leaf items; always at 2 items) or no split separates centroids. The items' boxes and centroids are kept
+    in node order (moved with the partition), so every pass reads memory contiguously, and each node makes two
+    passes over its items: binning, and the partition, which also gives the children their boxes and centroid
+    bounds (these ride on the stack until the child is built). With defer > 0, a node (other than the root) of
+    at most `defer` items is left unbuilt and listed in deferred (node, first, end) and deferred_cb (its
+    centroid bounds), so build_wide_bvh can build it (this same kernel, in place, on another thread: each
+    subtree touches only its own items and node rows).
     """
     inf = np.inf
     bins = np.empty((3 * N_BINS, 6))         # per axis a and bin b, row a * N_BINS + b: lo xyz, hi xyz
+    bins[:, :3] = inf                        # empty; the sweep empties each bin it used again
+    bins[:, 3:] = -inf
     bin_cnt = np.zeros(3 * N_BINS, np.int64)
+    nz = np.empty(N_BINS, np.int64)          # one axis's non-empty bins
     right_area = np.empty(N_BINS)
     right_cnt = np.empty(N_BINS, np.int64)
     scale = np.zeros(3)
@@ -127,13 +134,9 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
                 deferred_cb[n_def, a] = fstack[sp, a]
             n_def += 1
             continue
-        nbins = min(N_BINS, max(4, 2 * cnt))  # small nodes: fewer bins, as good a split for less work
-        for a in range(3):
-            for b in range(nbins):
-                row = a * N_BINS + b
-                bin_cnt[row] = 0
-                bins[row, 0] = bins[row, 1] = bins[row, 2] = inf
-                bins[row, 3] = bins[row, 4] = bins[row, 5] = -inf
+        if cnt <= 2 and cnt <= max_leaf:
+            continue  # a leaf: splitting costs 2 visits of this box and more, keeping it 2 tests of it (exact in float)
+        nbins = min(N_BINS if cnt >= 16 else 8, max(4, 2 * cnt))  # nodes of under 16 items: 8 bins or fewer
         n_axes = 0
         for a in range(3):
             ext = fstack[sp, 3 + a] - fstack[sp, a]
@@ -161,37 +164,47 @@ def build_nodes(ib, order, box, left, right, start, count, root, first, end, roo
                     bins[row, 3] = max(bins[row, 3], x1)
                     bins[row, 4] = max(bins[row, 4], y1)
                     bins[row, 5] = max(bins[row, 5], z1)
-        # sweep: right-to-left accumulates the right side, left-to-right evaluates each of the nbins-1 planes
+        # sweep the non-empty bins only (a plane after an empty bin costs what the plane before it does, and the
+        # strict < keeps the earlier: the same choice as sweeping every bin, for less work on the many small
+        # nodes): right-to-left accumulates the right side, left-to-right evaluates each plane; each bin used is
+        # emptied again on the way (bins start empty, see above)
         best_cost = inf
         best_axis = -1
         best_bin = 0
         for a in range(3):
-            if scale[a] == 0.0:
-                continue
             base = a * N_BINS
-            rl0 = rl1 = rl2 = inf
-            rh0 = rh1 = rh2 = -inf
-            rc = 0
-            for b in range(nbins - 1, 0, -1):
-                bb = bins[base + b]
-                rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
-                rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
-                rc += bin_cnt[base + b]
-                right_area[b] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
-                right_cnt[b] = rc
-            ll0 = ll1 = ll2 = inf
-            lh0 = lh1 = lh2 = -inf
-            lc = 0
-            for b in range(nbins - 1):
-                bb = bins[base + b]
-                ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
-                lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
-                lc += bin_cnt[base + b]
-                if lc == 0 or right_cnt[b + 1] == 0:
-                    continue
-                cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[b + 1] * right_cnt[b + 1]
-                if cost < best_cost:
-                    best_cost, best_axis, best_bin = cost, a, b
+            k = 0
+            for b in range(nbins):
+                if bin_cnt[base + b] > 0:
+                    nz[k] = b
+                    k += 1
+            if scale[a] != 0.0 and k > 1:
+                rl0 = rl1 = rl2 = inf
+                rh0 = rh1 = rh2 = -inf
+                rc = 0
+                for q in range(k - 1, 0, -1):
+                    bb = bins[base + nz[q]]
+                    rl0, rl1, rl2 = min(rl0, bb[0]), min(rl1, bb[1]), min(rl2, bb[2])
+                    rh0, rh1, rh2 = max(rh0, bb[3]), max(rh1, bb[4]), max(rh2, bb[5])
+                    rc += bin_cnt[base + nz[q]]
+                    right_area[q] = _area(rl0, rl1, rl2, rh0, rh1, rh2)
+                    right_cnt[q] = rc
+                ll0 = ll1 = ll2 = inf
+                lh0 = lh1 = lh2 = -inf
+                lc = 0
+                for q in range(k - 1):
+                    bb = bins[base + nz[q]]
+                    ll0, ll1, ll2 = min(ll0, bb[0]), min(ll1, bb[1]), min(ll2, bb[2])
+                    lh0, lh1, lh2 = max(lh0, bb[3]), max(lh1, bb[4]), max(lh2, bb[5])
+                    lc += bin_cnt[base + nz[q]]
+                    cost = _area(ll0, ll1, ll2, lh0, lh1, lh2) * lc + right_area[q + 1] * right_cnt[q + 1]
+                    if cost < best_cost:
+                        best_cost, best_axis, best_bin = cost, a, nz[q]
+            for q in range(k):
+                row = base + nz[q]
+                bin_cnt[row] = 0
+                bins[row, 0] = bins[row, 1] = bins[row, 2] = inf
+                bins[row, 3] = bins[row, 4] = bins[row, 5] = -inf
         parent_area = _area(box[node, 0], box[node, 1], box[node, 2], box[node, 3], box[node, 4], box[node, 5])
         leaf_cost = parent_area * cnt
         split_cost = parent_area * TRAVERSAL_COST + best_cost
@@ -271,6 +284,23 @@ def build_bvh2(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF) -> tupl
     return box[:m], left[:m], right[:m], start[:m], count[:m], order
 
 
+_NORMAL_ABOVE = np.float32(1.1754944e-38)  # the smallest normal float32: below the binade below has its spacing
+_HUGE = np.float32(2.0**127)
+_SHRINK = np.float32(1.0 - 2.0**-24)       # the largest float32 below 1
+
+
+@nb.njit(**JIT, inline="always")
+def _step_down(y):
+    """np.nextafter(y, -inf) for a float32 y, to the bit, by one rounded float32 product or quotient where y is
+    normal (y (1 - 2^-24) lies between y's neighbour below and half way to it, or on it for a power of two, and
+    rounds to it; y / (1 - 2^-24) likewise to the neighbour of a negative y): libm's call took 6 ns, 29 of the
+    1.1M bunny's 49 ms of collapse_bvh4. Checked against np.nextafter on every float32."""
+    a = abs(y)
+    if a > _NORMAL_ABOVE and a < _HUGE:
+        return y * _SHRINK if y > 0 else y / _SHRINK
+    return np.nextafter(y, np.float32(-np.inf))
+
+
 def collapse_bvh4(box: np.ndarray, left: np.ndarray, right: np.ndarray, start: np.ndarray,
                   count: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Turn a binary BVH into the 4-wide layout described at the top: each wide node takes up to four
@@ -333,8 +363,8 @@ def _collapse(box, left, right, start, count, bounds, child, src, depth):
                     child[w, lane] = 0
                     continue
                 for a in range(3):
-                    bounds[w, a, lane] = np.nextafter(np.float32(box[q, a]), np.float32(-np.inf))
-                    bounds[w, 3 + a, lane] = np.nextafter(np.float32(box[q, 3 + a]), np.float32(np.inf))
+                    bounds[w, a, lane] = _step_down(np.float32(box[q, a]))
+                    bounds[w, 3 + a, lane] = -_step_down(-np.float32(box[q, 3 + a]))
                 if left[q] < 0:
                     child[w, lane] = leaf_code(start[q], count[q])
                 else:
@@ -352,14 +382,15 @@ def _collapse(box, left, right, start, count, bounds, child, src, depth):
     return nw, max_depth
 
 
-PARALLEL_BUILD = 100_000  # items from which build_wide_bvh builds subtrees on several threads
+PARALLEL_BUILD = 32_000  # items from which build_wide_bvh builds subtrees on several threads (the bunny, 69k, is)
 
 
 def build_wide_bvh(lo: np.ndarray, hi: np.ndarray, max_leaf: int = MAX_LEAF):
     """Build the 4-wide BVH over boxes lo/hi (n, 3): (bounds, child, order, depth); see the module docstring.
 
-    Large inputs on several threads: the top of the tree is built until its open nodes hold at most n / (4
-    threads) items each; those subtrees are then built concurrently, in place (each on its own items' rows of
+    Large inputs on several threads (_build_threaded): the top of the tree is built (the root's two children's
+    tops concurrently) until its open nodes hold at most n / (4 threads) items each; those subtrees are then
+    built concurrently, in place (each on its own items' rows of
     the shared item arrays, its nodes at rows reserved for it: 2k - 2 for k items; rows left unused are never
     linked, and collapse_bvh4 follows links only). Each subtree sees its items in the order the serial build
     would, so the tree is the same as the serial one's.
@@ -379,19 +410,40 @@ def build_wide_bvh_rows(ib: np.ndarray, root_box: np.ndarray, root_cb: np.ndarra
     if n < PARALLEL_BUILD or threads < 2:
         m, _ = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, 0, np.empty((0, 3), np.int64), np.empty((0, 6)))
     else:
-        deferred, deferred_cb = np.empty((n, 3), np.int64), np.empty((n, 6))
-        m, n_def = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, n // (4 * threads), deferred, deferred_cb)
-        sizes = deferred[:n_def, 2] - deferred[:n_def, 1]
-        offsets = m + np.concatenate([[0], np.cumsum(2 * sizes - 2)])
-        m = int(offsets[-1])
-        pool = thread_pool(threads)
-        futures = []
-        none = np.empty((0, 3), np.int64), np.empty((0, 6))
-        for k in np.argsort(-sizes, kind="stable"):  # the largest first
-            node, first, end = (int(x) for x in deferred[k])
-            futures.append(pool.submit(build_nodes, *arrays, node, first, end, deferred_cb[k],
-                                       int(offsets[k]), max_leaf, 0, *none))
-        for f in futures:
-            f.result()
+        m = _build_threaded(arrays, n, root_cb, max_leaf, threads)
     bounds, child, depth = collapse_bvh4(box[:m], left[:m], right[:m], start[:m], count[:m])
     return bounds, child, order, int(depth)
+
+
+def _build_threaded(arrays: tuple, n: int, root_cb: np.ndarray, max_leaf: int, threads: int) -> int:
+    """build_wide_bvh_rows' tree on `threads` threads: the root alone, then each of its two children's tops (down
+    to nodes of n / (4 threads) items) on a thread of its own, then, as each top is done, its subtrees. Every
+    node's rows are reserved below its parent's: 2k - 2 for a node of k items, which is what any binary tree over
+    them uses (a top with d unbuilt nodes and e one-item leaves uses 2(d + e) - 2 rows, its subtrees of s_i
+    items 2 s_i - 2 each). Returns the rows used (some unlinked)."""
+    pool = thread_pool(threads)
+    none = np.empty((0, 3), np.int64), np.empty((0, 6))
+    halves, halves_cb = np.empty((2, 3), np.int64), np.empty((2, 6))
+    m, n_half = build_nodes(*arrays, 0, 0, n, root_cb, 1, max_leaf, n - 1, halves, halves_cb)
+    sizes = halves[:n_half, 2] - halves[:n_half, 1]
+    starts = m + np.concatenate([[0], np.cumsum(2 * sizes - 2)])
+
+    def top(k: int) -> tuple[int, np.ndarray, np.ndarray]:
+        node, first, end = (int(x) for x in halves[k])
+        deferred, deferred_cb = np.empty((end - first, 3), np.int64), np.empty((end - first, 6))
+        used, n_def = build_nodes(*arrays, node, first, end, halves_cb[k], int(starts[k]), max_leaf,
+                                  n // (4 * threads), deferred, deferred_cb)
+        return used, deferred[:n_def], deferred_cb[:n_def]
+
+    futures = []
+    for done in as_completed([pool.submit(top, k) for k in range(n_half)]):
+        used, deferred, deferred_cb = done.result()
+        sub = deferred[:, 2] - deferred[:, 1]
+        offsets = used + np.concatenate([[0], np.cumsum(2 * sub - 2)])
+        for k in np.argsort(-sub, kind="stable"):  # the largest first
+            node, first, end = (int(x) for x in deferred[k])
+            futures.append(pool.submit(build_nodes, *arrays, node, first, end, deferred_cb[k], int(offsets[k]),
+                                       max_leaf, 0, *none))
+    for f in futures:
+        f.result()
+    return int(starts[-1])

@@ -11,6 +11,7 @@ import numba as nb
 import numpy as np
 
 from ..common import JIT
+from ..threads import map_pieces
 
 
 @nb.njit(**JIT, inline="always")
@@ -83,29 +84,38 @@ def leaf_items(tris, order):
     return leaf_prim, leaf_tri
 
 
+PARALLEL_ITEMS = 100_000  # triangles from which indexed_items and indexed_leaves run in pieces on every thread
+
+
 def indexed_items(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, ...]:
     """For the triangles v[f] (vertices (V, 3) float32 or float64, indices (F, 3)): unit normals (F, 3), the
     mesh's bounds lo, hi (3,), and the build's item rows (build.item_rows: ib (F, 9) of each triangle's box and
     centroid, the root's box (6,) and centroid bounds (6,)), in one pass over the indices, with no (F, 3) box
     arrays in between (53 MB of page faults at 1.1M triangles). The arithmetic is mesh_normals_bounds',
     item_boxes' and item_rows' on float64(v[f]), so the same bits. The large arrays are NumPy's (see
-    build.node_arrays: huge pages where the system gives them)."""
-    normals, ib = np.empty((len(f), 3)), np.empty((len(f), 9))
-    return (normals, *_indexed_items(v, f, normals, ib))
+    build.node_arrays: huge pages where the system gives them). Large meshes in pieces on every thread (each
+    piece's rows are its own; the bounds are minima and maxima of the pieces', so the same bits)."""
+    n = len(f)
+    normals, ib = np.empty((n, 3)), np.empty((n, 9))
+    pieces = map_pieces(_indexed_items, n, v, f, normals, ib, threads=None if n >= PARALLEL_ITEMS else 1)
+    ext = np.array([p for p in pieces if p.shape[0]]).reshape(-1, 2, 6)  # per piece: box, centroid bounds
+    root_box, root_cb = np.empty(6), np.empty(6)
+    for row, ref in ((0, root_box), (1, root_cb)):
+        ref[:3] = ext[:, row, :3].min(axis=0) if len(ext) else np.inf
+        ref[3:] = ext[:, row, 3:].max(axis=0) if len(ext) else -np.inf
+    return normals, root_box[:3].copy(), root_box[3:].copy(), ib, root_box, root_cb
 
 
 @nb.njit(**JIT)
-def _indexed_items(v, f, normals, ib):
-    """indexed_items into the given normals and ib: returns lo, hi, ib, root_box, root_cb."""
-    n = f.shape[0]
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
-    root_cb = np.empty(6)
+def _indexed_items(v, f, normals, ib, i0, i1):
+    """indexed_items for triangles i0..i1 into the given normals and ib: returns (2, 6) their box (lo, hi) and
+    their centroid bounds, or (0, 6) for no triangles."""
+    ext = np.empty((2, 6))
     for a in range(3):
-        root_cb[a] = np.inf
-        root_cb[3 + a] = -np.inf
+        ext[0, a] = ext[1, a] = np.inf
+        ext[0, 3 + a] = ext[1, 3 + a] = -np.inf
     p = np.empty((3, 3))
-    for i in range(n):
+    for i in range(i0, i1):
         for c in range(3):
             k = f[i, c]
             for a in range(3):
@@ -118,22 +128,19 @@ def _indexed_items(v, f, normals, ib):
             b_lo, b_hi = min(x, y, z), max(x, y, z)
             cen = 0.5 * (b_lo + b_hi)
             ib[i, a], ib[i, 3 + a], ib[i, 6 + a] = b_lo, b_hi, cen
-            lo[a] = min(lo[a], b_lo)
-            hi[a] = max(hi[a], b_hi)
-            root_cb[a] = min(root_cb[a], cen)
-            root_cb[3 + a] = max(root_cb[3 + a], cen)
-    root_box = np.empty(6)
-    for a in range(3):
-        root_box[a], root_box[3 + a] = lo[a], hi[a]
-    return lo, hi, ib, root_box, root_cb
+            ext[0, a] = min(ext[0, a], b_lo)
+            ext[0, 3 + a] = max(ext[0, 3 + a], b_hi)
+            ext[1, a] = min(ext[1, a], cen)
+            ext[1, 3 + a] = max(ext[1, 3 + a], cen)
+    return ext if i1 > i0 else ext[:0]
 
 
 @nb.njit(**JIT)
-def _narrow_gather(v, f, order, out):
-    """out[j] = float32 of the vertices of triangle order[j] (rows of v through f); False if one is no
-    float32 value (the caller then keeps float64 leaves)."""
+def _narrow_gather(v, f, order, out, j0, j1):
+    """out[j] = float32 of the vertices of triangle order[j] (rows of v through f) for j in j0..j1; False if one
+    is no float32 value (the caller then keeps float64 leaves)."""
     exact = True
-    for j in range(order.shape[0]):
+    for j in range(j0, j1):
         t = order[j]
         for c in range(3):
             k = f[t, c]
@@ -147,9 +154,9 @@ def _narrow_gather(v, f, order, out):
 
 
 @nb.njit(**JIT)
-def _wide_gather(v, f, order, out):
-    """out[j] = the vertices of triangle order[j] (float64), through f."""
-    for j in range(order.shape[0]):
+def _wide_gather(v, f, order, out, j0, j1):
+    """out[j] = the vertices of triangle order[j] (float64), through f, for j in j0..j1."""
+    for j in range(j0, j1):
         t = order[j]
         for c in range(3):
             k = f[t, c]
@@ -160,12 +167,13 @@ def _wide_gather(v, f, order, out):
 def indexed_leaves(v: np.ndarray, f: np.ndarray, order: np.ndarray, narrow: bool) -> tuple[np.ndarray, np.ndarray]:
     """leaf_prim and leaf_tri (M, 9) of a mesh v[f] in leaf order (no spheres); float32 when `narrow` and every
     vertex read is a float32 value (the traversal then reads half the bytes and answers the same), else
-    float64. One gather, no float64 copy on the way to float32."""
+    float64. One gather, no float64 copy on the way to float32; large meshes in pieces on every thread."""
     leaf_prim = order.astype(np.int32, copy=False)
+    threads = None if len(order) >= PARALLEL_ITEMS else 1
     if narrow:
         out = np.empty((len(order), 9), np.float32)
-        if _narrow_gather(v, f, order, out):
+        if all(map_pieces(_narrow_gather, len(order), v, f, order, out, threads=threads)):
             return leaf_prim, out
     out64 = np.empty((len(order), 9))
-    _wide_gather(v, f, order, out64)
+    map_pieces(_wide_gather, len(order), v, f, order, out64, threads=threads)
     return leaf_prim, out64
