@@ -420,7 +420,7 @@ def main() -> None:
         for k in range(a.pairs):
             first, second = (run_a, run_b) if k % 2 == 0 else (run_b, run_a)
             t1 = timed(lambda f=first: f(*args, ref))
-            t2 = timed(lambda f=second: f(*args, out))
+            t2 = timed(lambda f=second, r=out: f(*args, r))
             x, y = (t1, t2) if k % 2 == 0 else (t2, t1)
             ta.append(x)
             tb.append(y)
