@@ -33,13 +33,14 @@ from raycases import SHARED, load_mesh, random_rays
 from durer.accel.bvh import build_tree
 from durer.kernels.bvh.layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, LO_X, LO_Y, LO_Z, NODE_FLOATS, leaf_range
 from durer.kernels.bvh.simd import _F64x4, _row, _splat, entry4, prefetch
-from durer.kernels.bvh.single import blas_closest, ray_setup
+from durer.kernels.bvh.single import blas_any, blas_closest, ray_setup
 from durer.kernels.common import MISS, TRIANGLE
 from durer.kernels.intersect import watertight_triangle
 
 _UX, _UY, _UZ = np.uint64(LO_X + HI_X), np.uint64(LO_Y + HI_Y), np.uint64(LO_Z + HI_Z)
 _UNODE = np.uint64(NODE_FLOATS)
 _U0, _U1, _U2, _U4, _U9, _U16 = (np.uint64(k) for k in (0, 1, 2, 4, 9, 16))
+ANY_VARIANTS = {"any copy": dict(), "any branch-free": dict(branchfree=True)}
 _ULP4, _TINY = 2.0 ** -51, 2.0 ** -1022
 _JIT = dict(error_model="numpy", nogil=True)  # as kernels/common.JIT, without the disk cache
 VARIANTS = {
@@ -389,6 +390,84 @@ def make_run(walk):
     return run
 
 
+def make_any(branchfree=False):
+    """blas_any (triangles only) with next_leaf's pushes branch-free on an unsigned stack (as blas_all's)."""
+
+    @nb.njit(inline="always", **_JIT)
+    def prefetch_child(bounds, child, code):
+        node = np.uint64(max(code, 0))
+        base = node * _UNODE
+        prefetch(bounds, base)
+        prefetch(bounds, base + _U16)
+        prefetch(child, node * _U4)
+
+    @nb.njit(**_JIT, _nrt=False)
+    def walk_any(bounds, child, root, leaf_prim, leaf_tri, ox, oy, oz, dx, dy, dz, t_min, t_max, stack_node):
+        idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+        rx, ry, rz = np.uint64(nrx), np.uint64(nry), np.uint64(nrz)
+        stack_node[0] = root
+        sp = _U1
+        while sp > _U0:
+            sp -= _U1
+            node = stack_node[sp]
+            if node >= 0:
+                c0, c1, c2, c3 = row4(child, np.uint64(node))
+                prefetch_child(bounds, child, c0)
+                prefetch_child(bounds, child, c1)
+                prefetch_child(bounds, child, c2)
+                prefetch_child(bounds, child, c3)
+                base = np.uint64(node) * _UNODE
+                d0, d1, d2, d3 = entry4(bounds, base + rx, base + (_UX - rx), base + ry, base + (_UY - ry),
+                                        base + rz, base + (_UZ - rz), (ox, oy, oz), (idx, idy, idz), t_min, t_max,
+                                        FAR_WIDEN)
+                if branchfree:
+                    stack_node[sp] = c0
+                    sp += np.uint64(d0 < np.inf)
+                    stack_node[sp] = c1
+                    sp += np.uint64(d1 < np.inf)
+                    stack_node[sp] = c2
+                    sp += np.uint64(d2 < np.inf)
+                    stack_node[sp] = c3
+                    sp += np.uint64(d3 < np.inf)
+                else:
+                    for lane, d in enumerate((d0, d1, d2, d3)):
+                        if d < np.inf:
+                            stack_node[sp] = (c0, c1, c2, c3)[lane]
+                            sp += _U1
+                continue
+            first, end = leaf_range(node)
+            for j in range(first, end):
+                if watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min,
+                                       t_max)[0] < np.inf:
+                    return True
+        return False
+
+    return walk_any
+
+
+@nb.njit
+def run_any_a(bounds, child, leaf_prim, leaf_tri, o, d, stack_size, t_max, out):
+    """single.blas_any over the batch (t_max per ray)."""
+    stack_node = np.empty(stack_size, np.int32)
+    e3, e1, e34 = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3, 4))
+    for i in range(o.shape[0]):
+        out[i] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, e3, e1, e34, o[i, 0], o[i, 1], o[i, 2], d[i, 0],
+                          d[i, 1], d[i, 2], 0.0, t_max[i], stack_node)
+
+
+def make_run_any(walk):
+    """run_any_a's loop over a variant walk."""
+
+    @nb.njit
+    def run(bounds, child, leaf_prim, leaf_tri, o, d, stack_size, t_max, out):
+        stack_node = np.empty(stack_size, np.int32)
+        for i in range(o.shape[0]):
+            out[i] = walk(bounds, child, np.int32(0), leaf_prim, leaf_tri, o[i, 0], o[i, 1], o[i, 2], d[i, 0],
+                          d[i, 1], d[i, 2], 0.0, t_max[i], stack_node)
+
+    return run
+
+
 def timed(fn) -> float:
     start = time.thread_time()
     fn()
@@ -428,6 +507,24 @@ def main() -> None:
         print(f"{name:28s} B/A median {np.median(ratios):.3f} (range {min(ratios):.3f}-{max(ratios):.3f}) "
               f"A {np.median(ta) / len(o) * 1e9:.0f} ns/ray B {np.median(tb) / len(o) * 1e9:.0f} ns/ray "
               f"same to the bit: {same}", flush=True)
+
+    shadow = np.where(np.isfinite(ref[:, 0]), ref[:, 0] * 0.999, np.inf)
+    for name, flags in ANY_VARIANTS.items():
+        if a.only not in name:
+            continue
+        run_b = make_run_any(make_any(**flags))
+        for label, t_max in (("t_max = inf", np.full(len(o), np.inf)), ("unoccluded shadow rays", shadow)):
+            hit_a, hit_b = np.empty(len(o), np.bool_), np.empty(len(o), np.bool_)
+            run_any_a(*args, t_max, hit_a)
+            run_b(*args, t_max, hit_b)
+            ratios = []
+            for k in range(a.pairs):
+                first, second = (run_any_a, run_b) if k % 2 == 0 else (run_b, run_any_a)
+                t1 = timed(lambda f=first, r=hit_a, tm=t_max: f(*args, tm, r))
+                t2 = timed(lambda f=second, r=hit_b, tm=t_max: f(*args, tm, r))
+                ratios.append(t2 / t1 if k % 2 == 0 else t1 / t2)
+            print(f"{name} ({label}): B/A median {np.median(ratios):.3f} (range {min(ratios):.3f}-{max(ratios):.3f})"
+                  f" same: {np.array_equal(hit_a, hit_b)}", flush=True)
 
 
 if __name__ == "__main__":
