@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -66,6 +67,12 @@ def test_child_codes_are_the_row(rows, data):
                      np.int32).reshape(rows, 4)
     r = data.draw(st.integers(0, rows - 1))
     assert _row(child, r) == tuple(int(c) for c in child[r])
+
+
+def test_child_codes_refuse_a_strided_array():
+    """row4's flat offset holds for C-contiguous rows only: any other layout does not compile."""
+    with pytest.raises(nb.core.errors.TypingError):
+        _row(np.zeros((3, 8), np.int32)[:, ::2], 1)
 
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])

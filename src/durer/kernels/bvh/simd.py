@@ -71,6 +71,8 @@ def row4(typingctx, array, row):
     """The 4 int32 of row `row` (uint64) of a C-contiguous (N, 4) int32 array (a node's child codes) as one 16-byte
     vector load: no stride multiply, no negative-index wraparound, and the walk picks the nearest child's code
     from the registers by selects instead of loading it again after the node test."""
+    if not (isinstance(array, types.Array) and array.layout == "C" and array.ndim == 2 and array.dtype == types.int32):
+        return None  # a typing error: the flat offset row * 4 holds only for this layout
     sig = types.UniTuple(types.int32, 4)(array, row)
 
     def codegen(context, builder, signature, args):
