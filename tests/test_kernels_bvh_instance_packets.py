@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 from conftest import pinhole_rays
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from durer import RaycastingScene
@@ -96,10 +96,10 @@ def test_instance_packets_give_the_one_ray_answers_to_the_bit(seed, n_tri, copie
     hi = np.where(rng.random(len(o)) < 0.3, rng.uniform(5.0, 12.0, len(o)), np.inf)
     assert _coherent_tiles(tree, o, d, lo, hi) > 0.25  # the packet path is what is being tested
     got = _closest(tree, o, d, lo, hi, RES)
+    assume((got[2] != 0).sum() > 10)  # hits to compare (a scene of 20 small triangles can show fewer: seed 11659)
     ref = _one_by_one(_closest, tree, o, d, lo, hi)
     for name, a, b in zip(("t", "instance", "kind", "prim", "u", "v"), got, ref, strict=True):
         np.testing.assert_array_equal(a, b, err_msg=name)
-    assert (got[2] != 0).sum() > 10  # hits to compare
     short = rng.uniform(0.0, 12.0, len(o))
     np.testing.assert_array_equal(_any(tree, o, d, lo, short, RES), _one_by_one(_any, tree, o, d, lo, short))
     # consecutive rays (width 0: chunks of 16 along the rows) take packets too, with the same answers

@@ -15,8 +15,12 @@ inputs and leaf-ordered outputs).
 (`simd.entry4`: the slab test as <4 x double> vector code), push the entered children nearest first on a small
 stack (`push_nearest_first`) and return the next leaf; the leaf's items are tested by `slot_hit` (watertight
 triangle test, or the sphere in its object space); `pop_closer` drops stacked nodes farther than the best hit.
-`blas_closest`, `blas_any` and `blas_all` are the three walks (closest hit, any hit, every hit; `blas_all` written
-out with branch-free pushes and leaf prefetch, since an all-hits walk opens every box in the ray's range);
+A node's four child codes are read as one 16-byte row (`child_codes`, `simd.row4`) while its children are
+prefetched, and the nearest one is picked from them by selects; the ordered stack's pointer is unsigned, entry k at
+index k + 1 (no wraparound code on a push or pop).
+`blas_closest`, `blas_any` and `blas_all` are the three walks (closest hit, any hit, every hit; `blas_any` and
+`blas_all` written out with branch-free pushes, `blas_all` with leaf prefetch too, since an all-hits walk opens
+every box in the ray's range);
 `planes_closest` adds the unbounded planes, which live beside the tree.
 
 **Packets** (chunks.py, packet.py). Sixteen coherent rays (a 4 x 4 image tile, or 16 consecutive rays) that share

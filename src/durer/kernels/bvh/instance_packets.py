@@ -140,7 +140,7 @@ def _closest_rays(idx, m, origins, directions, t_min, t_max, top_bounds, top_chi
         best = t_max[i]
         b_inst, b_kind, b_prim, b_u, b_v = -1, MISS, -1, 0.0, 0.0
         idx_, idy, idz, nrx, nry, nrz = ray_slabs(ox, oy, oz, dx, dy, dz)
-        node, sp = 0, 0  # the top-level tree's root
+        node, sp = 0, np.uint64(0)  # the top-level tree's root, an empty ordered stack (single.push_nearest_first)
         while True:
             leaf, sp = descend(top_bounds, top_child, node, top_node, top_t, sp, nrx, nry, nrz, ox, oy, oz, idx_,
                                idy, idz, lo, best)

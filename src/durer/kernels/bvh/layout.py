@@ -114,5 +114,6 @@ def leaf_slots(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def stack_size_for(depth: int) -> int:
-    """Traversal stack entries a tree of this depth can need: three deferred children per level, plus slack."""
+    """Traversal stack entries a tree of this depth can need: three deferred children per level, plus slack (the
+    branch-free pushes write one entry beyond the top; the ordered stack keeps index 0 spare: single.py)."""
     return 3 * int(depth) + 8

@@ -1,4 +1,4 @@
-"""The one-ray node test as explicit 4-wide LLVM vector code (a Numba intrinsic).
+"""The one-ray node test as explicit 4-wide LLVM vector code, and the walk's loads and prefetches (Numba intrinsics).
 
 Numba leaves LLVM's SLP vectoriser off (NUMBA_SLP_VECTORIZE=0), and its loop vectoriser does not take a 4-lane
 loop with the per-ray row offsets of the slab test, so the node test of kernels/bvh/single.py compiled to scalar
@@ -67,6 +67,55 @@ def entry4(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, o, in
 
 
 @intrinsic
+def row4(typingctx, array, row):
+    """The 4 int32 of row `row` (uint64) of a C-contiguous (N, 4) int32 array (a node's child codes) as one 16-byte
+    vector load: no stride multiply, no negative-index wraparound, and the walk picks the nearest child's code
+    from the registers by selects instead of loading it again after the node test."""
+    if not (isinstance(array, types.Array) and array.layout == "C" and array.ndim == 2 and array.dtype == types.int32):
+        return None  # a typing error: the flat offset row * 4 holds only for this layout
+    sig = types.UniTuple(types.int32, 4)(array, row)
+
+    def codegen(context, builder, signature, args):
+        arr, r = args
+        data = cgutils.create_struct_proxy(signature.args[0])(context, builder, value=arr).data
+        vec_t = ir.VectorType(ir.IntType(32), 4)
+        ptr = builder.gep(data, [builder.mul(r, ir.Constant(ir.IntType(64), 4))])
+        vec = builder.load(builder.bitcast(ptr, vec_t.as_pointer()), align=4)
+        lanes = [builder.extract_element(vec, ir.Constant(ir.IntType(32), k)) for k in range(4)]
+        return context.make_tuple(builder, signature.return_type, lanes)
+
+    return sig, codegen
+
+
+def _prefetch_bytes(builder, ptr, extra):
+    """llvm.prefetch (read, high locality) of i8* `ptr` + `extra` bytes."""
+    i32 = ir.IntType(32)
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32]),
+                                        "llvm.prefetch.p0i8")
+    at = builder.gep(ptr, [ir.Constant(ir.IntType(64), extra)]) if extra else ptr
+    builder.call(fn, [at, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+
+
+@intrinsic
+def prefetch_pair(typingctx, array, offset):
+    """prefetch of element `offset` and of the line 64 bytes beyond it (a leaf's first triangles span two lines).
+    The 64 bytes are a constant here: written as `offset + 64 // array.itemsize` in Numba, the item size is a
+    run-time field of the array and the walk divided by it (an integer division per child and node visit,
+    0.86x the closest-hit walk's time without it on the bunny, benchmarks/README.md)."""
+    sig = types.void(array, offset)
+
+    def codegen(context, builder, signature, args):
+        arr, off = args
+        data = cgutils.create_struct_proxy(signature.args[0])(context, builder, value=arr).data
+        ptr = builder.bitcast(builder.gep(data, [off]), ir.IntType(8).as_pointer())
+        _prefetch_bytes(builder, ptr, 0)
+        _prefetch_bytes(builder, ptr, 64)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
 def prefetch(typingctx, array, offset):
     """Ask the cache to fetch element `offset` (uint64, counted flat from the start of a C-contiguous array of any
     dimension) ahead of its use (llvm.prefetch, read, high locality); never faults, so any offset is allowed."""
@@ -75,11 +124,7 @@ def prefetch(typingctx, array, offset):
     def codegen(context, builder, signature, args):
         arr, off = args
         data = cgutils.create_struct_proxy(signature.args[0])(context, builder, value=arr).data
-        ptr = builder.bitcast(builder.gep(data, [off]), ir.IntType(8).as_pointer())
-        i32 = ir.IntType(32)
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32]),
-                                            "llvm.prefetch.p0i8")
-        builder.call(fn, [ptr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        _prefetch_bytes(builder, builder.bitcast(builder.gep(data, [off]), ir.IntType(8).as_pointer()), 0)
         return context.get_dummy_value()
 
     return sig, codegen

@@ -13,12 +13,12 @@ import numpy as np
 from ..common import JIT, MISS, SPHERE, TRIANGLE
 from ..intersect import intersect_plane, ray_shear, sphere_hit_in_object_space, watertight_triangle
 from .layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, LEAF_COUNT_BITS, LO_X, LO_Y, LO_Z, NODE_FLOATS, leaf_range
-from .simd import entry4, prefetch
+from .simd import entry4, prefetch, prefetch_pair, row4
 
 # unsigned index constants of the node test: near row + far row of each axis, node size
 _UX, _UY, _UZ = np.uint64(LO_X + HI_X), np.uint64(LO_Y + HI_Y), np.uint64(LO_Z + HI_Z)
 _UNODE = np.uint64(NODE_FLOATS)
-_U4, _U9, _U16 = np.uint64(4), np.uint64(9), np.uint64(16)
+_U0, _U1, _U2, _U4, _U9, _U16 = (np.uint64(k) for k in (0, 1, 2, 4, 9, 16))
 _NO_LEAVES = np.empty(0)  # prefetch_children's leaf_tri where the walk does not know the leaves
 
 
@@ -61,18 +61,22 @@ def node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_
 @nb.njit(**JIT, inline="always")
 def _prefetch_child(bounds, leaf_tri, child, code):
     """Prefetch what child `code` points at: an inner node's 96-byte block of boxes (two cache lines) and its row
-    of child codes (the next load the walk waits on there), or a leaf's first triangle (72 or 36 bytes) when leaf_tri
-    is given (empty: nodes only). A leaf's code selects node 0 and an inner node's leaf slot 0 for the other, so
-    no branch: a prefetch never faults and a cached line costs nothing."""
+    of child codes (the next load the walk waits on there), or a leaf's first triangle (72 or 36 bytes) and the
+    line after it when leaf_tri is given (empty: nodes only). A leaf's code selects node 0 and an inner node's leaf
+    slot 0 for the other, so no branch: a prefetch never faults and a cached line costs nothing."""
     node = np.uint64(max(code, 0))
     base = node * _UNODE
     prefetch(bounds, base)
     prefetch(bounds, base + _U16)
     prefetch(child, node * _U4)
     if leaf_tri.shape[0] > 0:  # the first triangle's line and the next (float32 leaves: the next two triangles)
-        tri = np.uint64((-min(code, -1) - 1) >> LEAF_COUNT_BITS) * _U9
-        prefetch(leaf_tri, tri)
-        prefetch(leaf_tri, tri + np.uint64(64 // leaf_tri.itemsize))
+        prefetch_pair(leaf_tri, np.uint64((-min(code, -1) - 1) >> LEAF_COUNT_BITS) * _U9)
+
+
+@nb.njit(**JIT, inline="always")
+def child_codes(child, node):
+    """The 4 child codes of `node` (>= 0) as one 16-byte load (simd.row4)."""
+    return row4(child, np.uint64(node))
 
 
 @nb.njit(**JIT, inline="always")
@@ -82,60 +86,72 @@ def prefetch_children(bounds, leaf_tri, child, node):
     children that are pushed wait on the stack long enough for the prefetch to land. Measured 0.79-0.80x the
     time of the closest-hit walk without it (bunny and its 1.1M version, incoherent rays; benchmarks/README.md),
     even though it also fetches children that the test then rejects (prefetching only the entered ones was
-    slower: the address then waits for the test)."""
-    _prefetch_child(bounds, leaf_tri, child, child[node, 0])
-    _prefetch_child(bounds, leaf_tri, child, child[node, 1])
-    _prefetch_child(bounds, leaf_tri, child, child[node, 2])
-    _prefetch_child(bounds, leaf_tri, child, child[node, 3])
+    slower: the address then waits for the test). Returns the 4 codes (child_codes) for the caller's pushes."""
+    c0, c1, c2, c3 = child_codes(child, node)
+    _prefetch_child(bounds, leaf_tri, child, c0)
+    _prefetch_child(bounds, leaf_tri, child, c1)
+    _prefetch_child(bounds, leaf_tri, child, c2)
+    _prefetch_child(bounds, leaf_tri, child, c3)
+    return c0, c1, c2, c3
 
 
 @nb.njit(**JIT, inline="always")
-def _push(child, node, stack_node, stack_t, sp, d, lane, nearest):
-    """Push child `lane` of `node` with entry distance d when it was entered (d < inf) and is not the nearest,
+def _push(stack_node, stack_t, sp, code, d, lane, nearest):
+    """Push child `code` (lane `lane`) with entry distance d when it was entered (d < inf) and is not the nearest,
     branch-free: the entry is always written and the pointer moves only for a real push (the stack keeps spare
     entries for that: stack_size_for). Straight-line code also lets Numba drop the reference counting of the
-    arrays it is given (with branches it would not)."""
-    stack_node[sp] = child[node, lane]
-    stack_t[sp] = d
-    return sp + np.int64(d < np.inf) * np.int64(lane != nearest)
+    arrays it is given (with branches it would not). The ordered stack's pointer sp is unsigned and entry k
+    lives at index k + 1 (push_nearest_first)."""
+    u = sp + _U1
+    stack_node[u] = code
+    stack_t[u] = d
+    return sp + np.uint64(d < np.inf) * np.uint64(lane != nearest)
 
 
 @nb.njit(**JIT, inline="always")
-def push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp):
-    """Step into the nearest child of `node` a visit entered (entry distances d0..d3, inf for a miss), pushing
-    the other entered ones; returns (nearest child code or 0 if none was entered, new stack pointer).
+def push_nearest_first(d0, d1, d2, d3, c0, c1, c2, c3, stack_node, stack_t, sp):
+    """Step into the nearest child a visit entered (entry distances d0..d3, inf for a miss; child codes c0..c3),
+    pushing the other entered ones; returns (nearest child code or 0 if none was entered, new stack pointer).
 
     Most visits enter one or two children (bunny, incoherent rays: 12% none, 51% one, 27% two), so the nearest
     is found by three branch-free selects and the others pushed in lane order, with one exchange afterwards so
     that the nearer of the two topmost entries is popped first; a full sort cost more in mispredicted branches
-    than the better order of the rarer 3- and 4-child visits saved. The codes are read as child[node, lane]: a
-    row view child[node] costs a reference count per visit."""
+    than the better order of the rarer 3- and 4-child visits saved. The nearest code comes from the same selects
+    (the codes are in registers: child_codes), not from a load that waits for them.
+
+    The ordered stack (this, descend, pop_closer, blas_closest): sp (uint64) counts the entries, entry k is at
+    index k + 1, and index 0 is a spare the exchange reads and writes when the stack is empty. Unsigned indices
+    spare Numba's negative-index wraparound on every push and pop (with the two above: 0.81x the walk's time on
+    the bunny, 0.93x on the 1.1M bunny, benchmarks/README.md)."""
     a = d1 < d0
     m01 = d1 if a else d0
     l01 = 1 if a else 0
+    k01 = c1 if a else c0
     b = d3 < d2
     m23 = d3 if b else d2
     l23 = 3 if b else 2
+    k23 = c3 if b else c2
     c = m23 < m01
     nearest = l23 if c else l01
+    code = k23 if c else k01
     if (m23 if c else m01) == np.inf:
-        return 0, sp
+        return np.int32(0), sp
     start = sp
-    sp = _push(child, node, stack_node, stack_t, sp, d3, 3, nearest)
-    sp = _push(child, node, stack_node, stack_t, sp, d2, 2, nearest)
-    sp = _push(child, node, stack_node, stack_t, sp, d1, 1, nearest)
-    sp = _push(child, node, stack_node, stack_t, sp, d0, 0, nearest)
-    # the exchange, branch-free too: with fewer than two new entries it swaps the top entry with itself (when
-    # nothing is on the stack, index -1 is a spare entry at the stack's end)
-    top = sp - 1
-    below = top - np.int64(sp - start >= 2)
+    sp = _push(stack_node, stack_t, sp, c3, d3, 3, nearest)
+    sp = _push(stack_node, stack_t, sp, c2, d2, 2, nearest)
+    sp = _push(stack_node, stack_t, sp, c1, d1, 1, nearest)
+    sp = _push(stack_node, stack_t, sp, c0, d0, 0, nearest)
+    # the exchange, branch-free too: with fewer than two new entries it swaps the top entry with itself (index 0,
+    # the spare, when the stack is empty)
+    top = sp
+    below = top - np.uint64(sp - start >= _U2)
     t_top, t_below = stack_t[top], stack_t[below]
     n_top, n_below = stack_node[top], stack_node[below]
     swap = t_top > t_below
     stack_t[top], stack_t[below] = min(t_top, t_below), max(t_top, t_below)
     stack_node[top] = n_below if swap else n_top
     stack_node[below] = n_top if swap else n_below
-    return child[node, nearest], sp
+    return code, sp
 
 
 @nb.njit(**JIT, inline="always")
@@ -162,14 +178,14 @@ def next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy
         node = stack_node[sp]
         if node < 0:
             return node, sp
-        prefetch_children(bounds, _NO_LEAVES, child, node)
+        codes = prefetch_children(bounds, _NO_LEAVES, child, node)
         d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, t_hi)
         # a loop over the four scalars as a tuple, which LLVM unrolls: the same code and speed as the pushes written
         # out (paired render: 0.99); as an inlined helper per lane, branch-free 4% slower on the path tracer's
         # shadow rays, with a branch it kept the arrays' reference counts (benchmarks/README.md)
         for lane, d in enumerate((d0, d1, d2, d3)):
             if d < np.inf:
-                stack_node[sp] = child[node, lane]
+                stack_node[sp] = codes[lane]
                 sp += 1
     return 0, sp
 
@@ -178,10 +194,12 @@ def next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy
 def descend(bounds, child, node, stack_node, stack_t, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, best):
     """The ordered walk of closest-hit traversals (one or two levels), downwards: from `node`, step into the
     nearest child the ray enters within [t_lo, best], pushing the others with their entry distance. Returns (the
-    leaf reached, or 0 when the ray enters no child, new stack pointer)."""
+    leaf reached, or 0 when the ray enters no child, new stack pointer); sp is the ordered stack's (uint64: see
+    push_nearest_first)."""
     while node >= 0:
+        c0, c1, c2, c3 = child_codes(child, node)
         d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_lo, best)
-        node, sp = push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp)
+        node, sp = push_nearest_first(d0, d1, d2, d3, c0, c1, c2, c3, stack_node, stack_t, sp)
         if node == 0:
             return 0, sp
     return node, sp
@@ -191,11 +209,11 @@ def descend(bounds, child, node, stack_node, stack_t, sp, nrx, nry, nrz, ox, oy,
 def pop_closer(stack_node, stack_t, sp, best):
     """The ordered walk, sideways: pop the next deferred subtree whose entry distance is not beyond the closest hit
     so far (the others can no longer hold a closer hit). Returns (node, or 0 when none is left, stack pointer)."""
-    while sp > 0:
-        sp -= 1
+    while sp > _U0:
         if stack_t[sp] <= best:
-            return stack_node[sp], sp
-    return 0, sp
+            return stack_node[sp], sp - _U1
+        sp -= _U1
+    return np.int32(0), sp
 
 
 @nb.njit(**JIT)
@@ -215,13 +233,13 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
     idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
     # The nearest-first walk and the leaf test written out here rather than through descend/pop_closer and slot_hit
     # (which the other walks use): on incoherent rays this form measured 4-7% faster (benchmarks/README.md, issue 8).
-    sp = 0
+    sp = _U0  # the ordered stack (push_nearest_first): entry k at index k + 1
     node = root
     while True:
         if node >= 0:
-            prefetch_children(bounds, leaf_tri, child, node)
+            c0, c1, c2, c3 = prefetch_children(bounds, leaf_tri, child, node)
             d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, best)
-            nxt, sp = push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp)
+            nxt, sp = push_nearest_first(d0, d1, d2, d3, c0, c1, c2, c3, stack_node, stack_t, sp)
             if nxt != 0:
                 node = nxt
                 continue
@@ -242,11 +260,12 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
                         best, kind, prim, bu, bv = t, SPHERE, s, 0.0, 0.0
         # pop the next subtree that can still hold a closer hit
         node = 0
-        while sp > 0:
-            sp -= 1
+        while sp > _U0:
             if stack_t[sp] <= best:
                 node = stack_node[sp]
+                sp -= _U1
                 break
+            sp -= _U1
         if node == 0:
             break
     if kind == MISS:
@@ -254,16 +273,36 @@ def blas_closest(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radiu
     return best, kind, prim, bu, bv
 
 
-@nb.njit(**JIT)
+@nb.njit(**JIT, _nrt=False)  # allocates nothing; with reference counting, the sphere test's row views cost a count
 def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
              ox, oy, oz, dx, dy, dz, t_min, t_max, stack_node):
-    """True as soon as anything is hit with t_min < t < t_max (no ordering: the first hit ends the search)."""
+    """True as soon as anything is hit with t_min < t < t_max (no ordering: the first hit ends the search).
+
+    The unordered walk written out (next_leaf is the two-level kernels' form of it): the stack pointer unsigned,
+    an entered child pushed branch-free from the codes the prefetch read (the entry is always written, the
+    pointer moves when the box is entered; the stack keeps spare entries: stack_size_for). Paired against
+    next_leaf's pushes (a branch per entered box, the codes loaded again, and the arrays' reference counts Numba
+    kept for that helper): 0.64x the time with t_max = inf, 0.72x on unoccluded shadow rays (bunny,
+    benchmarks/README.md)."""
     idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
     stack_node[0] = root
-    leaf, sp = -1, 1
-    while leaf != 0:  # the first hit of any leaf ends the search
-        leaf, sp = next_leaf(bounds, child, stack_node, sp, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max)
-        first, end = leaf_range(leaf) if leaf != 0 else (0, 0)
+    sp = _U1
+    while sp > _U0:
+        sp -= _U1
+        node = stack_node[sp]
+        if node >= 0:
+            c0, c1, c2, c3 = prefetch_children(bounds, _NO_LEAVES, child, node)
+            d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max)
+            stack_node[sp] = c0
+            sp += np.uint64(d0 < np.inf)
+            stack_node[sp] = c1
+            sp += np.uint64(d1 < np.inf)
+            stack_node[sp] = c2
+            sp += np.uint64(d2 < np.inf)
+            stack_node[sp] = c3
+            sp += np.uint64(d3 < np.inf)
+            continue
+        first, end = leaf_range(node)
         for j in range(first, end):
             if slot_hit(j, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, ox, oy, oz, dx, dy, dz, okx, oky, okz,
                         kx, ky, kz, sx, sy, sz, t_min, t_max)[0] < np.inf:
