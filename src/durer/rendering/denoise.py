@@ -134,13 +134,13 @@ def blend(denoised: np.ndarray, noisy: np.ndarray, moment: np.ndarray, samples: 
         return denoised
     noisy = np.maximum(np.nan_to_num(noisy, posinf=0.0), 0.0)
     second = np.nan_to_num(moment, posinf=0.0).sum(axis=-1)
-    var = np.maximum(second - (noisy * noisy).sum(axis=-1), 0.0) * (scale / (samples - 1))
-    diff = ((denoised - noisy) ** 2).sum(axis=-1)
-    v, d = window_mean(var, radius), window_mean(diff, radius)
+    var = np.maximum(second - np.einsum("ijk,ijk->ij", noisy, noisy), 0.0) * (scale / (samples - 1))
+    delta = denoised - noisy
+    v, d = window_mean(var, radius), window_mean(np.einsum("ijk,ijk->ij", delta, delta), radius)
     bias = np.maximum(d - v, 0.0)
     total = bias + v
     w = np.divide(bias, total, out=np.zeros_like(total), where=total > 0)[..., None]
-    return (denoised + w * (noisy - denoised)).astype(denoised.dtype)
+    return (denoised - w * delta).astype(denoised.dtype)
 
 
 def window_mean(a: np.ndarray, radius: int) -> np.ndarray:
