@@ -69,19 +69,37 @@ def size(scene: durer.Scene, res: int) -> tuple[int, int]:
     return max(1, round(w * s)), max(1, round(h * s))
 
 
-def reference(path: Path, scene: durer.Scene, res: int, spp: int) -> np.ndarray:
-    cache = OUT / f"denoise_ref_{path.stem}_{res}_{spp}.npy"
+def reference(path: Path, scene: durer.Scene, res: int, spp: int, chunks: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, variance of the mean) of a `spp`-sample reference (H, W, 3): `chunks` independent renders (seeds
+    1000 + k) of spp / chunks samples each, the variance from their spread (each chunk keeps its own stratified
+    stream, so this is the reference's true variance, not an i.i.d. bound); chunks 0: the earlier references
+    (chunks of 1024 spp, variance unknown: zeros). Cached in benchmarks/out/."""
+    per = spp // chunks if chunks else min(spp, 1024)
+    n = spp // per
+    cache = OUT / (f"denoise_ref_{path.stem}_{res}_{spp}_k{chunks}.npz" if chunks
+                   else f"denoise_ref_{path.stem}_{res}_{spp}.npy")
     if cache.exists():
-        return np.load(cache)
+        if not chunks:
+            img = np.load(cache)
+            return img, np.zeros_like(img)
+        z = np.load(cache)
+        return z["mean"], z["var"]
     start = time.perf_counter()
-    img = np.zeros(size(scene, res)[::-1] + (3,))
-    chunk = min(spp, 1024)
-    for k in range(spp // chunk):  # chunks of independent seeds: the same estimator, bounded memory
-        img += durer.render(scene, *size(scene, res), samples=chunk, seed=1000 + k).color / (spp // chunk)
-    print(f"# reference {path.stem}: {spp} spp at {res} px, {time.perf_counter() - start:.0f} s")
+    total, squares = np.zeros(size(scene, res)[::-1] + (3,)), np.zeros(size(scene, res)[::-1] + (3,))
+    for k in range(n):  # chunks of independent seeds: the same estimator, bounded memory
+        c = durer.render(scene, *size(scene, res), samples=per, seed=1000 + k).color.astype(np.float64)
+        total += c
+        squares += c * c
+    mean = total / n
+    var = np.maximum(squares / n - mean * mean, 0.0) / (n - 1) if n > 1 else np.zeros_like(mean)
+    print(f"# reference {path.stem}: {spp} spp ({n} x {per}) at {res} px, {time.perf_counter() - start:.0f} s",
+          flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
-    np.save(cache, img)
-    return img
+    if chunks:
+        np.savez(cache, mean=mean, var=var)
+    else:
+        np.save(cache, mean)
+    return mean, var
 
 
 def emitter_pixels(path: Path, scene: durer.Scene, res: int) -> np.ndarray:
@@ -96,8 +114,12 @@ def emitter_pixels(path: Path, scene: durer.Scene, res: int) -> np.ndarray:
     return seen
 
 
-def rmse(a: np.ndarray, b: np.ndarray, keep: np.ndarray) -> float:
-    return float(np.sqrt(np.mean((a[keep] - b[keep]) ** 2)))
+def rmse(a: np.ndarray, ref: tuple[np.ndarray, np.ndarray], keep: np.ndarray) -> float:
+    """RMSE of a against the reference's mean over the kept pixels, the reference's own variance taken out: for a
+    render independent of the reference E|a - r|^2 = MSE(a) + Var(r), so mean |a - r|^2 - mean Var(r) is an
+    unbiased estimate of a's MSE against the converged image (0 for a reference without a variance)."""
+    mean, var = ref
+    return float(np.sqrt(max(0.0, np.mean((a[keep] - mean[keep]) ** 2) - np.mean(var[keep]))))
 
 
 def denoised_renders(scene: durer.Scene, wh: tuple[int, int], n: int, seed: int, qualities) -> dict:
@@ -116,29 +138,37 @@ def denoised_renders(scene: durer.Scene, wh: tuple[int, int], n: int, seed: int,
     return dict(images=out, seconds=seconds)
 
 
-def errors(path: Path, res: int, ref_spp: int, noisy_spp, denoised_spp, qualities, seeds: int) -> dict:
+def errors(path: Path, res: int, refs, noisy_spp, denoised_spp, qualities, seeds: int, chunks: int = 0) -> dict:
     """RMSE against the reference of noisy renders {spp: e} and of denoised ones {quality: {way: {spp: e}}}
     (WAYS, on the same samples, at each OIDN quality), each the mean over `seeds` seeds (one above 128 spp: one
-    run's error at low spp is set by a few firefly pixels), and OIDN's mean seconds (durer's way)."""
+    run's error at low spp is set by a few firefly pixels), and OIDN's mean seconds (durer's way). `refs`: the
+    references' sample counts; the same renders are scored against each (by_ref), the first in noisy/denoised."""
     scene = durer.load(path)
-    ref = reference(path, scene, res, ref_spp)
+    references = {spp: reference(path, scene, res, spp, chunks) for spp in refs}
     keep = ~emitter_pixels(path, scene, res)
     wh = size(scene, res)
-    noisy = {n: float(np.mean([rmse(durer.render(scene, *wh, samples=n, seed=k).color, ref, keep)
-                               for k in range(1, 1 + (seeds if n <= 128 else 1))])) for n in noisy_spp}
-    denoised = {q: {w: {n: [] for n in denoised_spp} for w in WAYS} for q in qualities}
+    noisy = {spp: {n: [] for n in noisy_spp} for spp in refs}
+    for n in noisy_spp:
+        for k in range(1, 1 + (seeds if n <= 128 else 1)):
+            image = durer.render(scene, *wh, samples=n, seed=k).color
+            for spp, ref in references.items():
+                noisy[spp][n].append(rmse(image, ref, keep))
+    denoised = {spp: {q: {w: {n: [] for n in denoised_spp} for w in WAYS} for q in qualities} for spp in refs}
     seconds = {q: [] for q in qualities}
     for n in denoised_spp:
         for k in range(1, 1 + seeds):
             d = denoised_renders(scene, wh, n, k, qualities)
             for (q, way), image in d["images"].items():
-                denoised[q][way][n].append(rmse(image, ref, keep))
+                for spp, ref in references.items():
+                    denoised[spp][q][way][n].append(rmse(image, ref, keep))
             for q, t in d["seconds"].items():
                 seconds[q].append(t)
-    return dict(noisy=noisy, denoised={q: {w: {n: float(np.mean(v)) for n, v in e.items()} for w, e in ways.items()}
-                                       for q, ways in denoised.items()},
-                seconds={q: float(np.mean(v)) for q, v in seconds.items()},
-                clean=clean_features(scene.materials, path=True), filter=scene.render_defaults.get("filter", "box"))
+    by_ref = {spp: dict(noisy={n: float(np.mean(v)) for n, v in noisy[spp].items()},
+                        denoised={q: {w: {n: float(np.mean(v)) for n, v in e.items()} for w, e in ways.items()}
+                                  for q, ways in denoised[spp].items()}) for spp in refs}
+    return dict(**by_ref[refs[0]], by_ref=by_ref, seconds={q: float(np.mean(v)) for q, v in seconds.items()},
+                ref_chunks=chunks, clean=clean_features(scene.materials, path=True),
+                filter=scene.render_defaults.get("filter", "box"))
 
 
 def oidn_threads(r, quality: str, threads: int) -> None:
@@ -243,7 +273,11 @@ def picture(path: Path, res: int = 160, spp: int = 16) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--res", type=int, default=128, help="longer image side of the error renders (default 128)")
-    ap.add_argument("--ref-spp", type=int, default=4096, help="samples of the reference (default 4096)")
+    ap.add_argument("--ref-spp", type=int, nargs="+", default=[4096],
+                    help="samples of the reference (default 4096); several: the same renders scored against each")
+    ap.add_argument("--ref-chunks", type=int, default=0,
+                    help="references as this many independent renders, their variance taken out of each error "
+                         "(rmse); 0 (default): chunks of 1024 spp, no variance")
     ap.add_argument("--seeds", type=int, default=3, help="renders (seeds) averaged per error up to 128 spp (default 3)")
     ap.add_argument("--quick", action="store_true", help="64 px, 1024-spp reference, noisy up to 256 spp")
     ap.add_argument("--quality", nargs="+", default=[QUALITY], choices=("fast", "balanced", "high"),
@@ -264,7 +298,7 @@ def main() -> None:
     res, ref_spp, noisy_spp, qualities = a.res, a.ref_spp, tuple(sorted(set(a.noisy))), a.quality
     denoised_spp = tuple(sorted(set(a.denoised)))
     if a.quick:
-        res, ref_spp, noisy_spp = 64, 1024, tuple(n for n in noisy_spp if n <= 256)
+        res, ref_spp, noisy_spp = 64, [1024], tuple(n for n in noisy_spp if n <= 256)
     if a.timing_only:
         found, skipped = [], []
     else:
@@ -284,7 +318,7 @@ def main() -> None:
         print("|---" * (len(noisy_spp) + len(qualities) * (len(denoised_spp) + len(WAYS)) + 2) + "|")
     ratios = {(q, w): {} for q in qualities for w in WAYS}
     for path in paths:
-        e = errors(path, res, ref_spp, noisy_spp, denoised_spp, qualities, a.seeds)
+        e = errors(path, res, ref_spp, noisy_spp, denoised_spp, qualities, a.seeds, a.ref_chunks)
         base = e["noisy"][128 if 128 in e["noisy"] else max(e["noisy"])]
         at = 16 if 16 in denoised_spp else denoised_spp[0]
         for q, w in ratios:

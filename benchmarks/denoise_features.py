@@ -1,8 +1,9 @@
-"""The features' cost (issue 24): CPU time of a 16-spp Cornell box render without features, with them (aovs=True)
-and with the film of a denoised render (render_in with denoise=True: box-filtered inputs, the second moment and the
-split emission; OIDN itself not run), interleaved round by round in one process, and the ratios to the plain render.
+"""The features' cost (issue 24): CPU time of a 16-spp Cornell box render without features, with them (aovs=True),
+with the film of a denoised render (render_in with denoise=True: box-filtered inputs, the second moment and the
+split emission; OIDN itself not run) and the whole denoised render (durer.render(denoise=True) at each --quality:
+film, OIDN, blend and refilter), interleaved round by round in one process, and the ratios to the plain render.
 
-    PYTHONPATH=src python benchmarks/denoise_features.py [--res 512] [--rounds 4]
+    PYTHONPATH=src python benchmarks/denoise_features.py [--res 512] [--rounds 4] [--quality fast balanced high]
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--res", type=int, default=512)
     ap.add_argument("--rounds", type=int, default=4)
+    ap.add_argument("--quality", nargs="*", default=["fast", "balanced", "high"], choices=("fast", "balanced", "high"),
+                    help="OIDN presets of the whole denoised renders timed (none: the film only)")
     a = ap.parse_args()
     scene = durer.load(CORNELL)
 
@@ -33,6 +36,9 @@ def main() -> None:
     ways = {"plain": lambda res, n: durer.render(scene, res, res, samples=n),
             "features": lambda res, n: durer.render(scene, res, res, samples=n, aovs=True),
             "denoised film": film}
+    for q in a.quality:
+        ways[f"denoised {q}"] = lambda res, n, q=q: durer.render(scene, res, res, samples=n, denoise=True,
+                                                                 denoise_quality=q)
     for f in ways.values():  # compile
         f(32, 2)
     cpu = {k: [] for k in ways}

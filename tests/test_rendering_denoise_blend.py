@@ -20,9 +20,9 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def test_the_second_moment_is_the_mean_of_each_samples_square():
-    """A denoised render's MOMENT output is, per pixel and channel, the mean over its samples of the squared
-    denoiser input (the colour less the directly seen emission): each sample's value is the one-sample unit of
-    that sample alone (render_unit over range(i, i + 1), box film)."""
+    """A denoised render's MOMENT output is, per pixel, the mean over its samples of the squared norm of the
+    denoiser input (the colour less the directly seen emission), one channel: each sample's value is the
+    one-sample unit of that sample alone (render_unit over range(i, i + 1), box film)."""
     scene = durer.load(EXAMPLES / "cornell_box.xml")
     width, height, options = resolve(scene, 12, 10, samples=4, denoise=True)
     result = render_in(make_context(scene, options), width, height)
@@ -33,10 +33,15 @@ def test_the_second_moment_is_the_mean_of_each_samples_square():
         per_sample.append(acc.sums[..., :3] / acc.weight[..., None])
     per_sample = np.array(per_sample)
     np.testing.assert_allclose(result.color, per_sample.mean(axis=0), rtol=1e-6, atol=1e-7)
-    np.testing.assert_allclose(result.aovs[MOMENT], (per_sample ** 2).mean(axis=0), rtol=1e-5, atol=1e-7)
+    assert result.aovs[MOMENT].shape == (height, width, 1)
+    np.testing.assert_allclose(result.aovs[MOMENT][..., 0], (per_sample ** 2).sum(axis=-1).mean(axis=0), rtol=1e-5,
+                               atol=1e-7)
     assert (per_sample.var(axis=0) > 0).any()  # the render is noisy: the test compares real variances
     plain = durer.render(scene, width, height, samples=4, aovs=True)
     assert MOMENT not in plain.aovs  # only a denoised render films it
+    assert result.environment is None and plain.environment is not None  # nothing reads it in a denoised render
+    both = render_in(make_context(scene, resolve(scene, 12, 10, samples=4, denoise=True, aovs=True)[2]), 12, 10)
+    np.testing.assert_array_equal(both.environment, plain.environment)  # unless the outputs are asked for
 
 
 @settings(max_examples=25, deadline=None)
@@ -71,6 +76,9 @@ def test_blend_weights_are_the_mse_optimal_ones():
     np.testing.assert_array_equal(blend(denoised, noisy, noisy ** 2 + 1.0, samples, radius=0), denoised)
     np.testing.assert_allclose(blend(denoised, noisy, noisy ** 2, samples, radius=0), noisy)
     assert blend(denoised, noisy, moment, 1) is denoised  # one sample: no variance estimate
+    # the film's one channel, the mean squared norm, gives the same variance sum
+    np.testing.assert_allclose(blend(denoised, noisy, moment.sum(axis=-1, keepdims=True), samples, radius=0,
+                                     scale=1.0), out, rtol=1e-12)
 
 
 def test_blend_keeps_an_unbiased_denoisers_output_and_undoes_a_biased_one():
@@ -106,5 +114,6 @@ def test_a_denoised_render_blends_with_its_own_noisy_colour_and_moment(monkeypat
     (noisy, moment, samples), = calls
     assert samples == 4
     np.testing.assert_allclose(noisy, box.color - box.emission, rtol=1e-6, atol=1e-7)
-    assert (moment >= noisy ** 2 * (1 - 1e-5) - 1e-7).all() and (moment > noisy ** 2 + 1e-6).any()
+    square = (noisy ** 2).sum(axis=-1)
+    assert (moment[..., 0] >= square * (1 - 1e-5) - 1e-7).all() and (moment[..., 0] > square + 1e-6).any()
     np.testing.assert_allclose(d.color, box.emission, rtol=1e-6)  # the spy's zeros plus the emission

@@ -40,7 +40,7 @@ QUALITY = "high"  # OIDN's own default preset; RenderOptions.denoise_quality pic
 _QUALITY_CODES = {"high": 6, "balanced": 5, "fast": 4}  # OIDN_QUALITY_HIGH, _BALANCED, _FAST
 SPLIT = ("emission",)  # RenderResult outputs kept out of OIDN's input and added back (module docstring)
 PIXEL_FILTER = {"filter": "box", "filter_radius": 0.5}  # the film of the denoiser's input (module docstring)
-MOMENT = "second_moment"  # a denoised render's output: each pixel's mean of the squared denoiser input (blend)
+MOMENT = "second_moment"  # a denoised render's output (H, W, 1): each pixel's mean squared norm of the denoiser input
 BLEND_RADIUS = 3  # blend's window: the squared differences and variances are averaged over 7 x 7 pixels
 BLEND_SCALE = 2.0  # blend's variance factor: scale 1 raised the Cornell box's error 0.3% (benchmarks/README.md)
 QUADRATURE = 64  # pixel_weights' points per pixel side (the midpoint rule within 0.05% on the gaussian)
@@ -124,21 +124,23 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, *, clean:
 def blend(denoised: np.ndarray, noisy: np.ndarray, moment: np.ndarray, samples: int,
           radius: int = BLEND_RADIUS, scale: float = BLEND_SCALE) -> np.ndarray:
     """The denoised image (H, W, 3) moved toward the noisy one where it differs from it by more than the noise
-    of the pixel's own samples explains: the noisy pixel's variance v (of its mean, from the second moment of its
-    `samples` box-filtered samples, times `scale`) against the denoiser's bias b^2 = max(0, (denoised - noisy)^2 -
+    of the pixel's own samples explains: the noisy pixel's variance v summed over channels (of its mean, from the
+    second moment of its `samples` box-filtered samples, (H, W, 1) the mean squared norm or (H, W, 3) per channel:
+    the same sum, times `scale`) against the denoiser's bias b^2 = max(0, (denoised - noisy)^2 -
     v), both averaged over the (2 radius + 1)^2 window around the pixel and summed over channels; the MSE-optimal
     weight of the noisy pixel, b^2 / (b^2 + v), for two estimates with independent errors of those sizes. A scale
     above 1 leaves alone the differences that a 16-sample variance estimate may underrate."""
     if samples < 2:
         return denoised
     noisy = np.maximum(np.nan_to_num(noisy, posinf=0.0), 0.0)
-    var = np.maximum(np.nan_to_num(moment, posinf=0.0) - noisy * noisy, 0.0).sum(axis=-1) * (scale / (samples - 1))
-    diff = ((denoised - noisy) ** 2).sum(axis=-1)
-    v, d = window_mean(var, radius), window_mean(diff, radius)
+    second = np.nan_to_num(moment, posinf=0.0).sum(axis=-1)
+    var = np.maximum(second - np.einsum("ijk,ijk->ij", noisy, noisy), 0.0) * (scale / (samples - 1))
+    delta = denoised - noisy
+    v, d = window_mean(var, radius), window_mean(np.einsum("ijk,ijk->ij", delta, delta), radius)
     bias = np.maximum(d - v, 0.0)
     total = bias + v
     w = np.divide(bias, total, out=np.zeros_like(total), where=total > 0)[..., None]
-    return (denoised + w * (noisy - denoised)).astype(denoised.dtype)
+    return (denoised - w * delta).astype(denoised.dtype)
 
 
 def window_mean(a: np.ndarray, radius: int) -> np.ndarray:

@@ -63,6 +63,7 @@ MIN_SHARED_SIDE = 32    # ... but not into tiles under this side: a unit's fixed
 HALO_SIDES = 32         # a tile is at least this many filter radii wide: ((32 + 2) / 32)^2 = 1.13x the rays at most
 BASE = ("color", "t", "normal")  # SampleResult's own fields; any other non-None (N,k) field is an AOV
 SPLIT_WEIGHT = "split_weight"  # a denoised render's channel: the scene filter's weights of the split part's samples
+UNREAD = ("environment",)  # a denoised render films these only when options.aovs asks: nothing reads them
 
 
 @dataclass(frozen=True)
@@ -270,7 +271,6 @@ class Accumulators:
         np.copyto(self.centre[at], other.centre, where=nearer)
         return self
 
-
     def _widen(self, channels: tuple[tuple[str, int], ...]) -> None:
         """Make room for the channels this sum has not seen yet (zero so far: no sample had them)."""
         have = dict(self.channels)
@@ -353,46 +353,48 @@ class _Values:
     """A unit's per-sample values as the film reads them, each integrator result copied once, batch by batch, into
     `inputs` (n, C): the colour, then alpha (options.alpha) and each other output of SampleResult in its order (the
     channels of Accumulators); for a denoised render the colour less the split part (SPLIT), the outputs but the
-    split ones, the squared colour (MOMENT), and the split part in `part` (n, k) of its own. One array each, no
-    concatenation: the film's copies were most of the features' cost (benchmarks/README.md)."""
+    split ones and UNREAD, the squared norm of that colour (MOMENT), and the split part in `part` (n, k) of its own.
+    One array each, no concatenation: copies and channels were most of the features' cost (benchmarks/README.md)."""
 
     def __init__(self, res: SampleResult | None, n: int, every: bool, background, options: RenderOptions):
-        given = {} if res is None else {f.name: getattr(res, f.name) for f in fields(res) if f.name not in BASE}
+        skip = BASE + UNREAD * bool(options.denoise and not options.aovs)
+        given = {} if res is None else {f.name: getattr(res, f.name) for f in fields(res) if f.name not in skip}
         found = [(name, np.reshape(v, (len(res.t), -1)).shape[1]) for name, v in given.items() if v is not None]
         self.split = [(s, k) for s in SPLIT for name, k in found if s == name] if options.denoise else []
         own = [("alpha", 1)] * bool(options.alpha) + [a for a in found if a not in self.split]
-        own += [(MOMENT, 3)] * bool(options.denoise)
+        own += [(MOMENT, 1)] * bool(options.denoise)
         self.channels = (("color", 3), *own, *self.split) + ((SPLIT_WEIGHT, 1),) * bool(self.split)
         self.at, lo = {}, 3
         for name, k in own:
             self.at[name], lo = slice(lo, lo + k), lo + k
         make = np.empty if every else np.zeros
-        self.inputs = make((n, lo))
-        self.part = make((n, sum(k for _, k in self.split)))
+        self.inputs, self.part = make((n, lo)), make((n, sum(k for _, k in self.split)))
         if not every:
             self.inputs[:, :3] = background  # film points without a ray (outside a fisheye's circle)
         self.alpha, self.moment = options.alpha, options.denoise
 
     def put(self, sel, res: SampleResult) -> None:
         """Copy one batch's results (rays `sel` of the unit) into place."""
-        n, lo = len(res.t), 0
-        values = {name: np.asarray(getattr(res, name), dtype=np.float64).reshape(n, -1)
-                  for name in (*self.at, *(s for s, _ in self.split)) if name not in ("alpha", MOMENT)}
+        n, lo, split = len(res.t), 0, None
         for name, k in self.split:
-            self.part[sel, lo:lo + k], lo = values[name], lo + k
-        split = sum(values[name] for name, _ in self.split) if self.split else 0.0
-        self.inputs[sel, :3] = res.color - split if self.split else res.color
-        for name, value in values.items():
-            if name in self.at:
-                self.inputs[sel, self.at[name]] = value
+            value = np.reshape(getattr(res, name), (n, k))
+            self.part[sel, lo:lo + k], lo = value, lo + k
+            split = value if split is None else split + value
+        if split is not None and isinstance(sel, slice):  # no temporary
+            np.subtract(res.color, split, out=self.inputs[sel, :3])
+        else:
+            self.inputs[sel, :3] = res.color if split is None else res.color - split
+        for name, at in self.at.items():
+            if name not in ("alpha", MOMENT):
+                self.inputs[sel, at] = np.reshape(getattr(res, name), (n, -1))
 
     def done(self, t: np.ndarray) -> _Values:
         """Fill the channels computed from the others: alpha (coverage: 1 where the camera ray hit something) and
-        the squared colour."""
+        the squared norm of the colour (the blend's variance, summed over channels, needs no more)."""
         if self.alpha:
             self.inputs[:, self.at["alpha"]] = np.isfinite(t)[:, None]
         if self.moment:
-            np.multiply(self.inputs[:, :3], self.inputs[:, :3], out=self.inputs[:, self.at[MOMENT]])
+            self.inputs[:, self.at[MOMENT]] = np.einsum("ij,ij->i", self.inputs[:, :3], self.inputs[:, :3])[:, None]
         return self
 
 
