@@ -31,3 +31,18 @@ def perspective_rays(points, width, height, center, direction, horizontal, up, e
         origins[i, 0] = center[0]
         origins[i, 1] = center[1]
         origins[i, 2] = center[2]
+
+
+@nb.njit(**JIT)
+def orthographic_rays(points, width, height, center, direction, horizontal, up, size, origins, directions):
+    """OrthographicCamera.generate_rays per ray, in NumPy's order (the same bits): origins[i] = center + (sx size)
+    horizontal + (sy size) up for film point points[i]'s offsets (sx, sy) from the image centre in units of the
+    longer side, directions[i] = direction."""
+    side = float(max(width, height))
+    hw, hh = 0.5 * width, 0.5 * height
+    for i in range(points.shape[0]):
+        a = ((points[i, 0] - hw) / side) * size
+        b = ((points[i, 1] - hh) / side) * size
+        for k in range(3):
+            origins[i, k] = center[k] + a * horizontal[k] + b * up[k]
+            directions[i, k] = direction[k]

@@ -20,6 +20,7 @@ from ..common import JIT, MISS, PLANE
 from .bounce import shade_path
 from .bsdf import anisotropic
 from .columns import COLUMNS, TEXTURED
+from .qmc import SAMPLE_MIX as _SAMPLE_MIX
 from .qmc import mix64
 from .surface import surface_at, uv_at
 
@@ -32,7 +33,6 @@ _closest = nb.njit(**JIT, inline="always")(blas_closest.py_func)
 _any = nb.njit(**JIT, _nrt=False)(blas_any.py_func)
 _planes = nb.njit(**JIT, inline="always")(planes_closest.py_func)
 
-_SAMPLE_MIX = np.uint64(0xD1B54A32D192ED03)  # rendering/sampling.key's multiplier of the sample index
 PIECES = 32  # work items of a bounce: a few per thread, so a thread that was descheduled does not stall the other
 
 
