@@ -50,6 +50,7 @@ from ..scene.graph import Scene
 from . import film
 from .context import RenderContext, SampleResult, make_context
 from .denoise import MOMENT, PIXEL_FILTER, SPLIT
+from .heap import keep_freed_memory
 from .hit_aovs import WIDTH as HIT_WIDTH
 from .hit_aovs import hit_points
 from .integrators import Integrator, integrator_for
@@ -310,6 +311,7 @@ def _batch(integrator: Integrator, n_rays: int, halo: Tile) -> int:
 
 def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     """Trace samples `samples` of the tile's pixels and of its halo and filter them into the tile's sums."""
+    keep_freed_memory()  # this process's heap keeps the unit's freed arrays: no page faults per render (heap.py)
     options, width, height = job.options, job.width, job.height
     samples = range(samples.start, samples.stop)
     if not (0 <= samples.start < samples.stop <= options.samples):
