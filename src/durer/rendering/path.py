@@ -6,7 +6,8 @@ by Russian roulette from `rr_depth` on, and at MAX_BOUNCES at the latest). Paths
 bounce of all live paths of a batch at a time, with no Python loop over rays. When the accelerator offers a
 one-level tree to walk (Accelerator.kernel_tree: the default BVH, over instances flattened for path renders by
 context.make_context) a bounce is one Numba kernel
-(kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path); otherwise (other
+(kernels/path/wavefront.py: closest hit, surface, shading, shadow ray, next ray, per path; the camera rays'
+closest hits come from the accelerator's batch walk, where a pixel's samples walk together); otherwise (other
 accelerators, solid textures) it is one closest_hit and one any_hit query on the
 scene's accelerator (accel/hits.py) and between them one Numba pass for the hit surfaces (kernels/path/surface.py)
 and one for the shading (kernels/path/bounce.py: emission, light sample, BSDF sample, Russian roulette, next ray).
