@@ -1,6 +1,6 @@
-"""The pinhole camera's Numba rays (kernels/camera.py, taken by PerspectiveCamera.generate_rays and so by every
-pinhole render, query and preview) equal the camera's closed form evaluated in NumPy, to the bit, for any frame,
-angle, image shape and film points."""
+"""The pinhole and orthographic cameras' Numba rays (kernels/camera.py, taken by their generate_rays and so by every
+render, query and preview) equal the cameras' closed forms evaluated in NumPy, to the bit, for any frame, angle or
+size, image shape and film points."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from durer.kernels.camera import perspective_rays
+from durer.kernels.camera import orthographic_rays, perspective_rays
 from durer.options import RenderOptions
 from durer.rendering.film import camera_rays
-from durer.scene.cameras import PerspectiveCamera
+from durer.scene.cameras import OrthographicCamera, PerspectiveCamera
 
 vec = st.tuples(*[st.floats(-5, 5, allow_nan=False)] * 3).filter(lambda v: np.linalg.norm(v) > 1e-3)
 
@@ -71,3 +71,27 @@ def test_mutated_frame_as_lists():
     o, d, _ = cam.generate_rays(np.array([[1.0, 0.5]]), 2, 1)
     np.testing.assert_array_equal(o, [[1.0, 1.0, 1.0]])
     np.testing.assert_allclose(d, [[0.0, 0.0, -1.0]], atol=1e-15)
+
+
+@settings(max_examples=60, deadline=None)
+@given(vec, vec, vec, st.floats(0.01, 50), st.integers(1, 400), st.integers(1, 400), st.integers(0, 2**32 - 1))
+def test_the_orthographic_kernel_gives_generate_rays_bits(center, direction, up, size, width, height, seed):
+    if np.linalg.norm(np.cross(direction, up)) < 1e-3:
+        return  # no frame: the camera refuses it
+    cam = OrthographicCamera(center=center, direction=direction, up=up, size=size)
+    points = np.random.default_rng(seed).uniform(-0.5, 1.5, (257, 2)) * [width, height]
+    side = float(max(width, height))
+    sx, sy = (points[:, 0] - 0.5 * width) / side, (points[:, 1] - 0.5 * height) / side
+    o = cam.center + (sx * cam.size)[:, None] * cam.horizontal + (sy * cam.size)[:, None] * cam.up
+    d = np.broadcast_to(cam.direction, o.shape)
+    o1, d1, valid = cam.generate_rays(points, width, height)
+    np.testing.assert_array_equal(o1, o)
+    np.testing.assert_array_equal(d1, d)
+    o2, d2 = np.empty_like(o), np.empty((257, 3))
+    orthographic_rays(points, width, height, cam.center, cam.direction, cam.horizontal, cam.up, cam.size, o2, d2)
+    np.testing.assert_array_equal(o2, o)
+    np.testing.assert_array_equal(d2, d)
+    o3, d3, v3 = camera_rays(cam, points, width, height, RenderOptions(), np.zeros(257, np.int64), np.zeros(257))
+    np.testing.assert_array_equal(o3, o)
+    np.testing.assert_array_equal(d3, d)
+    assert v3.all() and valid.all()

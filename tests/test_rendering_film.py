@@ -18,6 +18,8 @@ import numba
 import numpy as np
 import pytest
 from conftest import COURSE, needs_course
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from durer.options import RenderOptions
 from durer.rendering import film
@@ -276,3 +278,51 @@ def test_course_a7_lines_found():
     assert len(every) == 35 + 16  # scene7_01: 1 + 9 + 9 + 16 lines; scene7_02: 16
     assert len(LINES) == len(every)
     assert LOOSE <= {line.outputs[0].rsplit(".", 1)[0] for line in every}
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.data(), st.integers(0, 2**40))
+def test_path_tracer_tile_samples_are_the_numpy_passes_bits(width, height, data, seed):
+    """tile_samples' Numba pass (kernels/path/qmc.film_samples) gives the NumPy film points (each pixel's corner
+    plus its tile_offsets: Sobol pair 0 of its own key), pixel and sample indices to the bit, for any rectangle."""
+    r0 = data.draw(st.integers(0, height - 1))
+    c0 = data.draw(st.integers(0, width - 1))
+    rows, cols = range(r0, data.draw(st.integers(r0 + 1, height))), range(c0, data.draw(st.integers(c0 + 1, width)))
+    s0 = data.draw(st.integers(0, 20))
+    samples = range(s0, s0 + data.draw(st.integers(1, 9)))
+    o = opts(samples=32, integrator="path", seed=seed)
+    points, pixel, sample = film.tile_samples(o, width, height, rows, cols, samples)
+    off = film.tile_offsets(o, width, height, rows, cols, samples)
+    r, c = np.divmod(np.arange(len(rows) * len(cols)), len(cols))
+    corner = np.stack([c + cols.start, height - 1 - (r + rows.start)], axis=-1).astype(np.float64)
+    np.testing.assert_array_equal(points, (corner[:, None, :] + off).reshape(-1, 2))
+    np.testing.assert_array_equal(pixel, np.repeat((r + rows.start) * width + c + cols.start, len(samples)))
+    np.testing.assert_array_equal(sample, np.tile(np.arange(samples.start, samples.stop), len(rows) * len(cols)))
+    np.testing.assert_array_equal(film.tile_points(o, width, height, rows, cols, samples), points)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 5), st.integers(0, 2**32 - 1))
+def test_nearest_samples_is_the_argmin_of_the_distance_to_the_centre(m, seed):
+    """nearest_samples: per tile pixel the first of its samples nearest the pixel centre (NumPy's argmin of the
+    squared distance, ties to the first), its t, normal and squared distance."""
+    rng = np.random.default_rng(seed)
+    height, halo, tile = 9, (1, 2, 6, 5), (2, 3, 3, 2)
+    hr, hc, hh, hw = halo
+    points = np.empty((hh * hw * m, 2))
+    for q in range(hh * hw):
+        row, col = hr + q // hw, hc + q % hw
+        # a grid of quarter pixels: exact ties happen
+        points[q * m:(q + 1) * m] = [col, height - 1 - row] + rng.integers(0, 5, (m, 2)) / 4
+    t, normal = rng.random(len(points)), rng.random((len(points), 3))
+    n = tile[2] * tile[3]
+    depth, nrm, centre, index = np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n, np.int64)
+    film.nearest_samples(points, t, normal, m, halo, tile, height, depth, nrm, centre, index)
+    for p in range(n):
+        row, col = tile[0] + p // tile[3], tile[1] + p % tile[3]
+        first = ((row - hr) * hw + col - hc) * m
+        own = points[first:first + m]
+        d2 = (own[:, 0] - (col + 0.5)) ** 2 + (own[:, 1] - (height - row - 0.5)) ** 2
+        best = first + int(np.argmin(d2))
+        assert index[p] == best and depth[p] == t[best] and centre[p] == d2.min()
+        np.testing.assert_array_equal(nrm[p], normal[best])

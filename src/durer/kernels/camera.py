@@ -1,6 +1,6 @@
-"""The pinhole perspective camera's rays in one pass (Numba), for PerspectiveCamera.generate_rays: per ray,
-d = direction + (sx extent) horizontal + (sy extent) up over its length, in NumPy's order of operations (no fused
-multiply-add: Numba's default contracts none), without eight temporary (N, 3) arrays and a norm's reduction."""
+"""The pinhole and orthographic cameras' rays in one pass (Numba), for their generate_rays: per ray, the camera's
+closed form in NumPy's order of operations (no fused multiply-add: Numba's default contracts none), without the
+temporary (N, 3) arrays and the norm's reduction an array expression makes."""
 
 from __future__ import annotations
 
@@ -31,3 +31,18 @@ def perspective_rays(points, width, height, center, direction, horizontal, up, e
         origins[i, 0] = center[0]
         origins[i, 1] = center[1]
         origins[i, 2] = center[2]
+
+
+@nb.njit(**JIT)
+def orthographic_rays(points, width, height, center, direction, horizontal, up, size, origins, directions):
+    """OrthographicCamera.generate_rays per ray, in NumPy's order (the same bits): origins[i] = center + (sx size)
+    horizontal + (sy size) up for film point points[i]'s offsets (sx, sy) from the image centre in units of the
+    longer side, directions[i] = direction."""
+    side = float(max(width, height))
+    hw, hh = 0.5 * width, 0.5 * height
+    for i in range(points.shape[0]):
+        a = ((points[i, 0] - hw) / side) * size
+        b = ((points[i, 1] - hh) / side) * size
+        for k in range(3):
+            origins[i, k] = center[k] + a * horizontal[k] + b * up[k]
+            directions[i, k] = direction[k]

@@ -41,9 +41,10 @@ import math
 import numba as nb
 import numpy as np
 
+from ..kernels.path.qmc import film_samples
 from ..options import RenderOptions
 from .integrators import integrator_for
-from .sampling import PIXEL_KEY, key, sobol_pair
+from .sampling import PIXEL_KEY, key, seed_key, sobol_pair
 
 LENS_KEY = PIXEL_KEY - 1  # the sample index of a pixel's aperture stream (lens_samples), never a real one
 
@@ -150,9 +151,33 @@ def pixel_offsets(options: RenderOptions, width: int, height: int) -> np.ndarray
     return tile_offsets(options, width, height, range(height), range(width), range(options.samples))
 
 
+def tile_samples(options: RenderOptions, width: int, height: int, rows: range, cols: range,
+                 samples: range) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """tile_points with each point's flat pixel index and sample index (P*S,): a unit's film samples. The path
+    tracer's Sobol points are made in one Numba pass (qmc.film_samples: the same bits as tile_points' NumPy)."""
+    count, m = len(rows) * len(cols), len(samples)
+    if uses_sobol(options):
+        points, pixel, sample = np.empty((count * m, 2)), np.empty(count * m, np.int64), np.empty(count * m, np.int64)
+        film_samples(seed_key(options.seed), PIXEL_KEY, int(width), int(height), rows.start, len(rows), cols.start,
+                     len(cols), samples.start, samples.stop, points, pixel, sample)
+        return points, pixel, sample
+    r, c = np.divmod(np.arange(count), len(cols))
+    pixel = np.repeat((r + rows.start) * width + c + cols.start, m)
+    return (_offset_points(options, width, height, rows, cols, samples), pixel,
+            np.tile(np.arange(samples.start, samples.stop), count))
+
+
 def tile_points(options: RenderOptions, width: int, height: int, rows: range, cols: range,
                 samples: range) -> np.ndarray:
     """Film points (P*S, 2) of samples `samples` of the rectangle's pixels, grouped by pixel (row-major)."""
+    if uses_sobol(options):
+        return tile_samples(options, width, height, rows, cols, samples)[0]
+    return _offset_points(options, width, height, rows, cols, samples)
+
+
+def _offset_points(options: RenderOptions, width: int, height: int, rows: range, cols: range,
+                   samples: range) -> np.ndarray:
+    """tile_points in NumPy: each pixel's corner plus its tile_offsets."""
     off = tile_offsets(options, width, height, rows, cols, samples)
     r, c = np.divmod(np.arange(len(rows) * len(cols)), len(cols))
     corner = np.stack([c + cols.start, height - 1 - (r + rows.start)], axis=-1).astype(np.float64)
@@ -182,6 +207,30 @@ def sample_points(width: int, height: int, options: RenderOptions) -> tuple[np.n
     units place the same points (tile_points)."""
     points = tile_points(options, width, height, range(height), range(width), range(options.samples))
     return points, np.repeat(np.arange(width * height), options.samples)
+
+
+@nb.njit(cache=True)
+def nearest_samples(points, t, normal, per_pixel, halo, tile, height, depth, nrm, centre, index):
+    """For each pixel p of the tile (row, col, rows, cols; row-major) the sample of its own per_pixel samples (of
+    the halo rectangle's, as gather reads them) whose film point is nearest the pixel's centre, the first on a tie:
+    its index in index[p], its t and normal (N,3) in depth[p] and nrm[p], its squared distance in centre[p]."""
+    hr, hc, _, hw = halo
+    tr, tc, th, tw = tile
+    for i in range(th):
+        cy = (height - (tr + i)) - 0.5
+        for j in range(tw):
+            cx = (tc + j) + 0.5
+            best = ((tr + i - hr) * hw + tc + j - hc) * per_pixel
+            dx, dy = points[best, 0] - cx, points[best, 1] - cy
+            near = dx * dx + dy * dy
+            for s in range(best + 1, best + per_pixel):
+                dx, dy = points[s, 0] - cx, points[s, 1] - cy
+                d2 = dx * dx + dy * dy
+                if d2 < near:
+                    best, near = s, d2
+            p = i * tw + j
+            index[p], depth[p], centre[p] = best, t[best], near
+            nrm[p, 0], nrm[p, 1], nrm[p, 2] = normal[best, 0], normal[best, 1], normal[best, 2]
 
 
 # --- filtering ---------------------------------------------------------------------------------------------------
@@ -353,6 +402,8 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
     span = 2 * radius + 1
     n = points.shape[0]
     wx, wy = np.zeros((n, span)), np.zeros((n, span))
+    a = -1.0 / (2.0 * r * r)  # the Gaussian's: _weight1's operands, its constant exp taken once (the same bits)
+    cut = math.exp(a * 16.0 * r * r)
     for q in range(hh * hw):
         rr, cc = hr + q // hw, hc + q % hw
         for s in range(q * per_pixel, (q + 1) * per_pixel):
@@ -361,8 +412,13 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
                 row = rr + k - radius
                 cx = col + 0.5
                 cy = height - row - 0.5
-                wx[s, k] = _weight1(kind, r, bc, points[s, 0] - cx)
-                wy[s, k] = _weight1(kind, r, bc, points[s, 1] - cy)
+                if kind == MITSUBA_GAUSSIAN:
+                    x, y = abs(points[s, 0] - cx), abs(points[s, 1] - cy)
+                    wx[s, k] = max(0.0, math.exp(a * x * x) - cut)
+                    wy[s, k] = max(0.0, math.exp(a * y * y) - cut)
+                else:
+                    wx[s, k] = _weight1(kind, r, bc, points[s, 0] - cx)
+                    wy[s, k] = _weight1(kind, r, bc, points[s, 1] - cy)
     for i in range(th):
         row = tr + i
         for j in range(tw):

@@ -50,6 +50,7 @@ from ..scene.graph import Scene
 from . import film
 from .context import RenderContext, SampleResult, make_context
 from .denoise import MOMENT, PIXEL_FILTER, SPLIT
+from .heap import keep_freed_memory
 from .hit_aovs import WIDTH as HIT_WIDTH
 from .hit_aovs import hit_points
 from .integrators import Integrator, integrator_for
@@ -310,6 +311,7 @@ def _batch(integrator: Integrator, n_rays: int, halo: Tile) -> int:
 
 def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     """Trace samples `samples` of the tile's pixels and of its halo and filter them into the tile's sums."""
+    keep_freed_memory()  # this process's heap keeps the unit's freed arrays: no page faults per render (heap.py)
     options, width, height = job.options, job.width, job.height
     samples = range(samples.start, samples.stop)
     if not (0 <= samples.start < samples.stop <= options.samples):
@@ -317,10 +319,7 @@ def render_unit(job: Job, tile: Tile, samples: range) -> Accumulators:
     halo = tile.grown(film.support_radius(options), width, height)
     rows, cols = range(halo.row, halo.row + halo.rows), range(halo.col, halo.col + halo.cols)
     m = len(samples)
-    points = film.tile_points(options, width, height, rows, cols, samples)
-    r, c = np.divmod(np.arange(halo.pixels), halo.cols)
-    pixel = np.repeat((r + halo.row) * width + c + halo.col, m)
-    sample = np.tile(np.arange(samples.start, samples.stop), halo.pixels)
+    points, pixel, sample = film.tile_samples(options, width, height, rows, cols, samples)
     origins, directions, valid = film.camera_rays(job.camera, points, width, height, options, pixel, sample)
     n = len(points)
     t, normal = np.full(n, np.inf), np.zeros((n, 3))
@@ -415,24 +414,12 @@ def _gather_denoised(points, inputs: np.ndarray, part: np.ndarray, m: int, halo:
 
 
 def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc: Accumulators) -> np.ndarray:
-    """Depth and normal of each tile pixel's sample nearest its centre (the first such sample on a tie); returns
-    those samples' indices into the unit's rays (tile pixels row-major)."""
-    rows, cols = tile.inside(halo)
-    pts = points.reshape(halo.rows, halo.cols, m, 2)[rows, cols]  # the tile's own samples, (rows, cols, m, 2)
-    cx = np.arange(tile.col, tile.col + tile.cols) + 0.5
-    cy = height - np.arange(tile.row, tile.row + tile.rows) - 0.5
-    d2 = (pts[..., 0] - cx[None, :, None]) ** 2 + (pts[..., 1] - cy[:, None, None]) ** 2
-    own_t = t.reshape(halo.rows, halo.cols, m)[rows, cols]
-    own_n = normal.reshape(halo.rows, halo.cols, m, 3)[rows, cols]
-    first = np.arange(halo.pixels).reshape(halo.rows, halo.cols)[rows, cols] * m  # each pixel's first sample
-    if m == 1:
-        acc.depth[:], acc.normal[:], acc.centre[:] = own_t[..., 0], own_n[..., 0, :], d2[..., 0]
-        return first.reshape(-1)
-    best = np.argmin(d2, axis=-1)[..., None]
-    acc.depth[:] = np.take_along_axis(own_t, best, axis=-1)[..., 0]
-    acc.normal[:] = np.take_along_axis(own_n, best[..., None], axis=-2)[..., 0, :]
-    acc.centre[:] = np.take_along_axis(d2, best, axis=-1)[..., 0]
-    return (first + best[..., 0]).reshape(-1)
+    """Depth and normal of each tile pixel's sample nearest its centre (the first such sample on a tie), in acc;
+    returns those samples' indices into the unit's rays (tile pixels row-major): film.nearest_samples."""
+    index = np.empty(tile.pixels, np.int64)
+    film.nearest_samples(np.ascontiguousarray(points, dtype=np.float64), t, normal, m, halo.rect, tile.rect, height,
+                         acc.depth.reshape(-1), acc.normal.reshape(-1, 3), acc.centre.reshape(-1), index)
+    return index
 
 
 def finish(job: Job, acc: Accumulators) -> RenderResult:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernels.camera import perspective_rays
+from ..kernels.camera import orthographic_rays, perspective_rays
 from .values import tame, unit
 
 
@@ -66,6 +66,18 @@ def _film_offsets(points: np.ndarray, width: int, height: int, longer: bool = Tr
     return (p[..., 0] - 0.5 * width) / side, (p[..., 1] - 0.5 * height) / side
 
 
+def _kernel_rays(kernel, camera, points: np.ndarray, width: int, height: int, scale: float):
+    """origins, directions (..., 3) of a camera's ray kernel (kernels/camera.py) through film points (..., 2): the
+    camera's frame as float64 arrays (a user may have assigned sequences to its fields) and `scale` its screen's
+    extent per unit of the longer side."""
+    p = np.asarray(points, dtype=np.float64)
+    flat = np.ascontiguousarray(p.reshape(-1, 2))
+    origins, directions = np.empty((len(flat), 3)), np.empty((len(flat), 3))
+    frame = (np.asarray(v, dtype=np.float64) for v in (camera.center, camera.direction, camera.horizontal, camera.up))
+    kernel(flat, int(width), int(height), *frame, float(scale), origins, directions)
+    return origins.reshape(p.shape[:-1] + (3,)), directions.reshape(p.shape[:-1] + (3,))
+
+
 def _film_points(sx: np.ndarray, sy: np.ndarray, width: int, height: int, longer: bool = True) -> np.ndarray:
     """The inverse of _film_offsets: offsets in units of the longer (or shorter) side -> film points (..., 2)."""
     side = float(max(width, height) if longer else min(width, height))
@@ -107,11 +119,10 @@ class OrthographicCamera:
         self.direction, self.up, self.horizontal = orthonormal_basis(self.direction, self.up)
 
     def generate_rays(self, points: np.ndarray, width: int, height: int):
-        """Rays through film points (..., 2): returns origins, directions (..., 3) and a validity mask."""
-        sx, sy = _film_offsets(points, width, height)
-        origins = self.center + (sx * self.size)[..., None] * self.horizontal + (sy * self.size)[..., None] * self.up
-        directions = np.broadcast_to(self.direction, origins.shape).copy()
-        return origins, directions, np.ones(sx.shape, dtype=bool)
+        """Rays through film points (..., 2): returns origins, directions (..., 3) and a validity mask (all True),
+        from one Numba pass (kernels/camera.orthographic_rays)."""
+        origins, directions = _kernel_rays(orthographic_rays, self, points, width, height, self.size)
+        return origins, directions, np.ones(origins.shape[:-1], dtype=bool)
 
     def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
         """World points (..., 3) -> film points (..., 2) in pixels (x right, y up) and a mask of the points the
@@ -156,14 +167,8 @@ class PerspectiveCamera:
         """Rays through film points (..., 2): origins, unit directions (..., 3) and a validity mask (all True).
         The pinhole's rays come from one Numba pass (kernels/camera.perspective_rays: no temporary arrays; the
         image's rays are a large share of a small render's time), then the thin lens moves their origins."""
-        p = np.asarray(points, dtype=np.float64)
-        shape = p.shape[:-1]
-        flat = np.ascontiguousarray(p.reshape(-1, 2))
-        origins, d = np.empty((len(flat), 3)), np.empty((len(flat), 3))
         extent = 2.0 * np.tan(np.radians(self.angle) / 2.0)
-        frame = (np.asarray(v, dtype=np.float64) for v in (self.center, self.direction, self.horizontal, self.up))
-        perspective_rays(flat, int(width), int(height), *frame, float(extent), origins, d)
-        origins, d = origins.reshape(shape + (3,)), d.reshape(shape + (3,))
+        origins, d = _kernel_rays(perspective_rays, self, points, width, height, extent)
         if self.aperture_radius > 0 and lens is not None:
             ax, ay = concentric_disk(np.asarray(lens, dtype=np.float64).reshape(d.shape[:-1] + (2,)))
             focus = origins + d * (self.focus_distance / (d @ self.direction))[..., None]
@@ -171,7 +176,7 @@ class PerspectiveCamera:
             origins += (self.aperture_radius * ay)[..., None] * self.up
             d = focus - origins
             d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        return origins, d, np.ones(shape, dtype=bool)
+        return origins, d, np.ones(origins.shape[:-1], dtype=bool)
 
     def project(self, points: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
         """World points (..., 3) -> film points (..., 2) in pixels through the pinhole, and a mask of the points

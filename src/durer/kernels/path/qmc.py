@@ -13,6 +13,7 @@ _M2 = np.uint64(0x94D049BB133111EB)
 _GOLD = np.uint64(0x9E3779B97F4A7C15)
 _PAIR = np.uint64(0xA0761D6478BD642F)
 _LOW = np.uint64(0xFFFFFFFF)
+SAMPLE_MIX = np.uint64(0xD1B54A32D192ED03)  # rendering/sampling.key's multiplier of the sample index
 
 
 def _sobol2_table() -> np.ndarray:
@@ -95,3 +96,26 @@ def sobol_pair_kernel(pixel_keys, sample, dim, out):
     """out[i] = sobol2(pixel_keys[i], sample[i], dim)."""
     for i in range(pixel_keys.shape[0]):
         out[i, 0], out[i, 1] = sobol2(pixel_keys[i], sample[i], dim)
+
+
+@nb.njit(**JIT)
+def film_samples(seed_key, pixel_sample, width, height, row0, rows, col0, cols, s0, s1, points, pixel, sample):
+    """The path tracer's film samples of the rectangle rows x cols at (row0, col0) of a width x height image,
+    samples s0..s1 of each pixel, grouped by pixel (row-major), in one pass: pixel[i] its flat index, sample[i]
+    its sample index, points[i] its film point (pixels, y up): the pixel's corner plus Sobol pair 0 of the
+    pixel's own key (rendering/sampling.key(seed, pixel, pixel_sample), seed_key = sampling.seed_key(seed)), the
+    same numbers as film.tile_points' NumPy passes."""
+    pk = np.uint64(pixel_sample) * SAMPLE_MIX
+    m = s1 - s0
+    for r in range(rows):
+        y = np.float64(height - 1 - (r + row0))
+        for c in range(cols):
+            p = (r + row0) * width + c + col0
+            key = mix64(mix64(np.uint64(p) + seed_key) ^ pk)
+            x = np.float64(c + col0)
+            i = (r * cols + c) * m
+            for s in range(s0, s1):
+                u, v = sobol2(key, s, 0)
+                points[i, 0], points[i, 1] = x + u, y + v
+                pixel[i], sample[i] = p, s
+                i += 1

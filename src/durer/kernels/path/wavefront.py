@@ -21,6 +21,7 @@ from ..common import JIT, MISS, PLANE
 from .bounce import shade_path
 from .bsdf import anisotropic
 from .columns import COLUMNS, TEXTURED
+from .qmc import SAMPLE_MIX as _SAMPLE_MIX
 from .qmc import mix64
 from .surface import surface_at, uv_at
 
@@ -33,7 +34,6 @@ _closest = nb.njit(**JIT, inline="always")(blas_closest.py_func)
 _any = nb.njit(**JIT, _nrt=False)(blas_any.py_func)
 _planes = nb.njit(**JIT, inline="always")(planes_closest.py_func)
 
-_SAMPLE_MIX = np.uint64(0xD1B54A32D192ED03)  # rendering/sampling.key's multiplier of the sample index
 PIECES = 32  # work items of a bounce: a few per thread, so a thread that was descheduled does not stall the other
 
 
@@ -51,7 +51,7 @@ def scratch(stack_size: int) -> tuple:
 # so no array can leak; the scratch comes from the caller.
 @nb.njit(**JIT, _nrt=False)
 def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L,
-                 aux, first, alive, scratch, p0, p1):
+                 aux, first, alive, given, scratch, p0, p1):
     """Bounce `scalars[0]` of the paths `live`, pieces p0..p1 of PIECES: each path traced, shaded and advanced
     in place.
 
@@ -63,29 +63,33 @@ def trace_bounce(live, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, 
     miss = (radiance r, g, b, light pdf, is an emitter) of every escaping ray; bsdf, lights, env and scalars as
     shade_bounce's; t_min of the rays. Adds found light to L (n, 3) and features to aux as shade_path; on bounce 0
     writes each path's first hit to first = (t (n,), geometric normal (n, 3)); alive[k] says whether path live[k]
-    goes on. scratch = scratch()."""
+    goes on. given = (t, kind, prim) (n,): the paths' closest hits found already (the camera rays, traced by the
+    accelerator's batch kernel: the same hits), or empty arrays: each path walks the tree. scratch = scratch()."""
     m = live.shape[0]
     for piece in range(p0, p1):
         stack_node, stack_t = scratch[0][piece], scratch[1][piece]
         for k in range(m * piece // PIECES, m * (piece + 1) // PIECES):
             _one_path(live[k], k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars,
-                      t_min, L, aux, first, alive, stack_node, stack_t, (scratch[2], 3 * piece))
+                      t_min, L, aux, first, alive, given, stack_node, stack_t, (scratch[2], 3 * piece))
 
 
 @nb.njit(**JIT, inline="always")
 def _one_path(i, k, o, d, thr, eta, prev, path, accel, surfaces, miss, bsdf, lights, env, scalars, t_min, L, aux,
-              first, alive, stack_node, stack_t, work):
+              first, alive, given, stack_node, stack_t, work):
     """trace_bounce's work on path i (live[k])."""
     sample, keys, pkeys = path
     bounds, child, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o, pl_n, pl_off, _ = accel
     tris, tri_mat, w2o, center, radius, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n, tri_uv = surfaces
     first_t, first_n = first
     ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
-    best, pprim = _planes(pl_n, pl_off, ox, oy, oz, dx, dy, dz, t_min, np.inf)
-    t, kind, prim, _, _ = _closest(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
-                                   ox, oy, oz, dx, dy, dz, t_min, best, stack_node, stack_t)
-    if kind == MISS and pprim >= 0:
-        t, kind, prim = best, PLANE, pprim
+    if given[0].shape[0]:
+        t, kind, prim = given[0][i], given[1][i], given[2][i]
+    else:
+        best, pprim = _planes(pl_n, pl_off, ox, oy, oz, dx, dy, dz, t_min, np.inf)
+        t, kind, prim, _, _ = _closest(bounds, child, 0, leaf_prim, leaf_tri, sph_c, sph_r, sph_w2o,
+                                       ox, oy, oz, dx, dy, dz, t_min, best, stack_node, stack_t)
+        if kind == MISS and pprim >= 0:
+            t, kind, prim = best, PLANE, pprim
     hit = kind != MISS
     h = t if hit else 0.0
     gx, gy, gz, sx, sy, sz, s = surface_at(ox + h * dx, oy + h * dy, oz + h * dz, kind, prim, tris, tri_mat, w2o,
