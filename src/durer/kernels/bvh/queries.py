@@ -20,6 +20,7 @@ from .instance_packets import _scratch, any_hit_instances, closest_hit_instances
 from .instances import all_hits_instances, hit_normal, next_instance, ray_slabs, to_object, top_walk
 from .layout import BLOCK, PACKET
 from .packet_all import HIT_CAP, hit_buffers, packet_all_instances
+from .queued import blas_count, ring_for
 from .single import blas_all, load_ray
 from .trace import any_hit_bvh, closest_hit_bvh
 
@@ -178,15 +179,41 @@ def _ray_hits(o, d, j, lo, hi, tree, top_node, stack_node, bufs):
 
 
 @nb.njit(**JIT)
+def _chunk_counts(o, d, lo, hi, idx, m, tree, top_node, ring, counts):
+    """counts[idx[q]] = every hit of ray idx[q] (q < m) of the band scratch o, d with lo < t < hi: the one-ray
+    two-level walk (instances.next_instance) into each instance's tree by the queued count-only walk
+    (queued.blas_count: no hit stored). Called once a chunk, not inlined: its arguments are the band's float64
+    scratch whatever the caller's rays, so it compiles once, and the tree's arrays are passed once per chunk
+    rather than once per ray."""
+    (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
+     sph_radius, sph_w2o, _) = tree
+    for q in range(m):
+        j = idx[q]
+        ox, oy, oz, dx, dy, dz = load_ray(o, d, j)
+        slabs = ray_slabs(ox, oy, oz, dx, dy, dz)
+        total = 0
+        walk = top_walk(top_node)
+        while True:
+            k, walk = next_instance(top_bounds, top_child, top_leaf, top_node, walk, slabs, ox, oy, oz, lo[j], hi[j])
+            if k < 0:
+                break
+            px, py, pz, qx, qy, qz = to_object(inst_w2o[k], ox, oy, oz, dx, dy, dz)
+            total += blas_count(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
+                                px, py, pz, qx, qy, qz, lo[j], hi[j], ring)
+        counts[j] = total
+
+
+@nb.njit(**JIT)
 def count_crossings(origins, directions, t_min, t_max, tree, band, width, counts, first, k0, k1):
     """count_intersections (tree as in closest_two_level): counts[i] of every ray of bands k0..k1. Coherent
     chunks of PACKET rays (4 x 4 tiles when the rays are an image `width` wide) go through
-    packet_all.packet_all_instances, the others through the one-ray walk (_ray_hits, single.blas_all): the
-    same hits either way."""
+    packet_all.packet_all_instances, the others through the one-ray count-only walk (_chunk_counts): the same
+    hits either way."""
     (top_bounds, top_child, top_leaf, inst_root, inst_w2o, bounds, child, leaf_prim, leaf_tri, sph_center,
      sph_radius, sph_w2o, stack_size) = tree
     (top_node, _, stack_node, _, rr, ro, top_key, top_order, key, order, idx, _, _, _, _,
      spread) = _scratch(stack_size, top_bounds, top_child)
+    ring = ring_for(stack_size)
     bufs = hit_buffers(0)
     cnt = bufs[0]
     o, d, lo, hi = band_scratch(band)
@@ -203,9 +230,7 @@ def count_crossings(origins, directions, t_min, t_max, tree, band, width, counts
                 for r in range(PACKET):
                     counts[r0 + idx[r]] = cnt[r]
                 continue
-            for q in range(mm):
-                j = idx[q]
-                counts[r0 + j] = _ray_hits(o, d, j, lo[j], hi[j], tree, top_node, stack_node, bufs)
+            _chunk_counts(o, d, lo, hi, idx, mm, tree, top_node, ring, counts[r0:r0 + m])
 
 
 @nb.njit(**JIT, inline="always")

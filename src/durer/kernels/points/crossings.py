@@ -19,42 +19,89 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..bvh.single import blas_all
-from ..common import JIT, TRIANGLE
+from ..bvh.items import unit_normal
+from ..bvh.layout import leaf_range
+from ..bvh.single import node_dists4, prefetch_children, ray_setup
+from ..common import JIT
+from ..intersect import watertight_triangle
 from .closest import POINTS_PER_BLOCK
 from .winding import away_from, lane_bound, object_point, sphere_winding
 
 EDGE_MARGIN = 1e-6  # barycentric distance to an edge below which a crossing is not trusted
 GRAZE = 1e-6        # |cos| between the ray and a triangle's normal below which a crossing is not trusted
-MAX_HITS = 64       # crossings kept per ray for the checks; a ray with more marks its point unsure
+
+
+@nb.njit(**JIT, inline="always")
+def signed_crossings(bounds, child, root, leaf_prim, leaf_tri, ox, oy, oz, dx, dy, dz, t_eps, stack):
+    """(the signed count of the ray's crossings of the tree at `root`, whether one of them is not clean): + where
+    the ray leaves through a triangle's counter-clockwise side. The ray starts t_eps (in world units) behind the
+    point. Every hit single.blas_all would find (the same watertight test), none stored: a hit's side and its
+    grazing test come from the triangle's unit normal, computed from the leaf's vertices as the mesh's stored
+    normals are (items.unit_normal, the same bits), so no random read of a normals array; the walk stops at the
+    first crossing that is not clean, or at a sphere slot (not a mesh's part). The queued walk of
+    kernels/bvh/queued.py, written out."""
+    dl = np.sqrt(dx * dx + dy * dy + dz * dz)
+    t_min = -t_eps / dl
+    idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+    stack[0] = root
+    sp = 1
+    signed = 0.0
+    while sp > 0:
+        sp -= 1
+        node = stack[sp]
+        if node >= 0:
+            prefetch_children(bounds, leaf_tri, child, node)
+            d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, np.inf)
+            stack[sp] = child[node, 0]
+            sp += np.int64(d0 < np.inf)
+            stack[sp] = child[node, 1]
+            sp += np.int64(d1 < np.inf)
+            stack[sp] = child[node, 2]
+            sp += np.int64(d2 < np.inf)
+            stack[sp] = child[node, 3]
+            sp += np.int64(d3 < np.inf)
+            continue
+        first, end = leaf_range(node)
+        for j in range(first, end):
+            if leaf_prim[j] < 0:  # a sphere slot: cannot happen in a mesh's tree; be safe
+                return signed, True
+            t, u, v = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, np.inf)
+            if t == np.inf:
+                continue
+            b = j * 9
+            x0, y0, z0 = np.float64(leaf_tri[b]), np.float64(leaf_tri[b + 1]), np.float64(leaf_tri[b + 2])
+            nx, ny, nz = unit_normal(np.float64(leaf_tri[b + 3]) - x0, np.float64(leaf_tri[b + 4]) - y0,
+                                     np.float64(leaf_tri[b + 5]) - z0, np.float64(leaf_tri[b + 6]) - x0,
+                                     np.float64(leaf_tri[b + 7]) - y0, np.float64(leaf_tri[b + 8]) - z0)
+            c = (dx * nx + dy * ny + dz * nz) / dl
+            if min(u, min(v, 1.0 - u - v)) < EDGE_MARGIN or abs(c) < GRAZE or abs(t) * dl <= t_eps:
+                return signed, True
+            signed += 1.0 if c > 0.0 else -1.0
+    return signed, False
 
 
 @nb.njit(**JIT)
-def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, inst_sphere, inst_shape, tri_off,
-                 normals, bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps,
-                 cap_lanes, w_out, unsure, bound, blk0, blk1):
+def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, inst_sphere, bounds, child, leaf_prim,
+                 leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps, cap_lanes, w_out, unsure, bound, blk0,
+                 blk1):
     """w_out[i] = the winding number of point i (blocks blk0..blk1) over all instances: for a mesh instance the
-    signed count of one ray's crossings (along tilt + the unit direction from `center` to the point, moved into
-    the instance's object space: + where it leaves through the triangle's counter-clockwise side, times the
-    instance's inst_sign), for a sphere instance 1 inside, 1/2 on the surface (as winding_numbers_instances).
-    unsure[i] = True when a crossing is not clean (module docstring): w_out[i] is then not to be used. `caps`, a
-    second tree's arguments in the same order (inst_root .. sph_w2o, then its stack size; no instances: none),
-    is crossed by the same ray and its count added (accel/caps.py), and bound[i] = winding.lane_bounds' bound on
-    its winding number from cap_lanes. Every mesh instance of the two together must be closed and consistently
-    oriented (the caller checks)."""
+    signed count of one ray's crossings (signed_crossings, along tilt + the unit direction from `center` to the
+    point, moved into the instance's object space, times the instance's inst_sign), for a sphere instance 1
+    inside, 1/2 on the surface (as winding_numbers_instances). unsure[i] = True when a crossing is not clean
+    (module docstring): w_out[i] is then not to be used. `caps`, a second tree's arguments in the same order
+    (inst_root .. sph_w2o, then its stack size; no instances: none), is crossed by the same ray and its count
+    added (accel/caps.py), and bound[i] = winding.lane_bounds' bound on its winding number from cap_lanes. Every
+    mesh instance of the two together must be closed and consistently oriented (the caller checks)."""
     n = points.shape[0]
-    (c_root, c_w2o, c_sign, _, c_shape, c_off, c_normals, c_bounds, c_child, c_prim, c_tri, c_center, c_radius,
-     c_sw2o, c_stack) = caps
+    c_root, c_w2o, c_sign, _, c_bounds, c_child, c_prim, c_tri, _, _, _, c_stack = caps
     stack = np.empty(max(stack_size, c_stack, 1) * 4, np.int32)
-    h_t, h_u, h_v = np.empty(MAX_HITS), np.empty(MAX_HITS), np.empty(MAX_HITS)
-    h_p, h_k = np.empty(MAX_HITS, np.int32), np.empty(MAX_HITS, np.int8)
     for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
         ax, ay, az = away_from(center, px, py, pz)
         rx, ry, rz = tilt[0] + ax, tilt[1] + ay, tilt[2] + az
         w = 0.0
         bad = False
-        for k in range(inst_root.shape[0]):  # each tree written out: an inlined helper cost 1.27x
+        for k in range(inst_root.shape[0]):
             s, m = inst_sphere[k], inst_w2o[k]
             ox, oy, oz = object_point(m, px, py, pz)
             if s >= 0:
@@ -63,27 +110,9 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
             dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
             dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
             dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
-            dl = np.sqrt(dx * dx + dy * dy + dz * dz)
             # from just behind the point, so that a surface through it is met (at |t| <= t_eps: unsure)
-            count = blas_all(bounds, child, inst_root[k], leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o,
-                             ox, oy, oz, dx, dy, dz, -t_eps / dl, np.inf, stack, h_t, h_p, h_k, h_u, h_v, 0)
-            if count > MAX_HITS:
-                bad = True
-                break
-            base = tri_off[inst_shape[k]]
-            signed = 0.0
-            for h in range(count):
-                if h_k[h] != TRIANGLE:  # a sphere placed as a mesh's part cannot happen; be safe
-                    bad = True
-                    break
-                f = base + h_p[h]
-                c = (dx * normals[f, 0] + dy * normals[f, 1] + dz * normals[f, 2]) / dl
-                u, v = h_u[h], h_v[h]
-                near_edge = min(u, min(v, 1.0 - u - v)) < EDGE_MARGIN
-                if near_edge or abs(c) < GRAZE or abs(h_t[h]) * dl <= t_eps:
-                    bad = True
-                    break
-                signed += 1.0 if c > 0.0 else -1.0
+            signed, bad = signed_crossings(bounds, child, inst_root[k], leaf_prim, leaf_tri, ox, oy, oz, dx, dy, dz,
+                                           t_eps, stack)
             if bad:
                 break
             w += inst_sign[k] * signed
@@ -94,18 +123,8 @@ def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, in
                 dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
                 dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
                 dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
-                dl = np.sqrt(dx * dx + dy * dy + dz * dz)
-                count = blas_all(c_bounds, c_child, c_root[k], c_prim, c_tri, c_center, c_radius, c_sw2o,
-                                 ox, oy, oz, dx, dy, dz, -t_eps / dl, np.inf, stack, h_t, h_p, h_k, h_u, h_v, 0)
-                bad = count > MAX_HITS
-                base = c_off[c_shape[k]]
-                signed = 0.0
-                for h in range(min(count, MAX_HITS)):
-                    f = base + h_p[h]
-                    c = (dx * c_normals[f, 0] + dy * c_normals[f, 1] + dz * c_normals[f, 2]) / dl
-                    u, v = h_u[h], h_v[h]
-                    bad |= min(u, min(v, 1.0 - u - v)) < EDGE_MARGIN or abs(c) < GRAZE or abs(h_t[h]) * dl <= t_eps
-                    signed += 1.0 if c > 0.0 else -1.0
+                signed, bad = signed_crossings(c_bounds, c_child, c_root[k], c_prim, c_tri, ox, oy, oz, dx, dy, dz,
+                                               t_eps, stack)
                 if bad:
                     break
                 w += c_sign[k] * signed
