@@ -8,7 +8,11 @@ tools/mitsuba_references.mirror), so both renderers read the same edited file an
 resolves as in the original; this handles scenes with a `res` parameter and scenes with literal film sizes alike.
 
 Each renderer renders each scene once first (warm: Numba's and LLVM's compilation), then --rounds times, the engines
-interleaved and their order rotated per round. Timed: durer.render and mi.render. durer keeps the scene's build
+interleaved and their order rotated per round, each timed render after a rest of --rest seconds (0.3): Dr.Jit's
+and Mitsuba's worker threads keep spinning for a while after a render, and an engine timed right after another
+shares the cores with them (measured: durer on `simple` 3.5 ms/spp wall right after an llvm_ad_rgb render,
+2.2 ms/spp after a 0.5 s rest; its process CPU 7.1 against 3.9 ms, the difference being Mitsuba's threads).
+Timed: durer.render and mi.render. durer keeps the scene's build
 (compile, tables, BVH) from the warm render while the scene is unchanged (rendering/builds.py; its check, the
 scene's fingerprint, is timed), as Mitsuba builds its tree once in load_file (not timed). Mitsuba's log goes to
 stderr. Reported: median seconds per sample per pixel (the time of one sample for the whole image), wall and
@@ -16,7 +20,7 @@ process CPU over all threads, and the ratios durer / scalar_rgb and durer / llvm
 medians over the scenes.
 
     DURER_SHARED=../shared PYTHONPATH=src python benchmarks/pathtrace_set.py [--res 128] [--spp 16] [--rounds 3]
-        [--only WORD ...] [--skip-llvm]
+        [--only WORD ...] [--skip-llvm] [--rest 0.3]
 
 llvm_ad_rgb needs Debian's libllvm19; DRJIT_LIBLLVM_PATH is set to it when present.
 """
@@ -134,6 +138,8 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3, help="timed renders per engine and scene")
     ap.add_argument("--only", nargs="*", default=[], help="scenes whose path contains one of these words")
     ap.add_argument("--skip-llvm", action="store_true")
+    ap.add_argument("--rest", type=float, default=0.3, help="seconds of rest before each timed render (the previous "
+                    "engine's worker threads go idle)")
     a = ap.parse_args()
     import mitsuba as mi
 
@@ -141,7 +147,8 @@ def main() -> None:
                                          ["llvm_ad_rgb"])
     names = [n for n in LOADABLE if not a.only or any(w in n for w in a.only)]
     load, now = os.getloadavg()[0], time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    print(f"{a.res} px on the longer side, {a.spp} spp, {a.rounds} rounds, median s/spp wall / CPU; "
+    print(f"{a.res} px on the longer side, {a.spp} spp, {a.rounds} rounds, {a.rest} s rest before each, median s/spp "
+          f"wall / CPU; "
           f"{os.cpu_count()} CPU cores, load {load:.1f} at the start, {now}\n")
     head = " | ".join(f"{e} wall / CPU" for e in engines)
     llvm = "llvm_ad_rgb" in engines
@@ -161,6 +168,7 @@ def main() -> None:
             cpu = {e: [] for e in engines}
             for r in range(a.rounds):
                 for e in engines[r % len(engines):] + engines[:r % len(engines)]:
+                    time.sleep(a.rest)
                     _, sec, cpu_sec = time_call(lambda f=render[e], r=r: f(1 + r))
                     wall[e].append(sec / a.spp)
                     cpu[e].append(cpu_sec / a.spp)
