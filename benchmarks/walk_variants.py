@@ -32,7 +32,7 @@ from raycases import SHARED, load_mesh, random_rays
 
 from durer.accel.bvh import build_tree
 from durer.kernels.bvh.layout import FAR_WIDEN, HI_X, HI_Y, HI_Z, LO_X, LO_Y, LO_Z, NODE_FLOATS, leaf_range
-from durer.kernels.bvh.simd import _F64x4, _row, _splat, entry4, prefetch
+from durer.kernels.bvh.simd import _entered, _F64x4, _row, _splat, entry4, prefetch
 from durer.kernels.bvh.single import blas_any, blas_closest, ray_setup
 from durer.kernels.common import MISS, TRIANGLE
 from durer.kernels.intersect import watertight_triangle
@@ -113,12 +113,7 @@ def entry4_fma(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, w
             b = builder.call(fma, [_row(builder, data, far), iv, wfv])
             tn = builder.select(builder.fcmp_ordered(">", a, tn), a, tn)
             tf = builder.select(builder.fcmp_ordered("<", b, tf), b, tf)
-        fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_F64x4, [_F64x4]), "llvm.fabs.v4f64")
-        reach = builder.fadd(tf, builder.fmul(builder.call(fabs, [tf]), _splat(builder, wid)))
-        inf = _splat(builder, ir.Constant(ir.DoubleType(), float("inf")))
-        dist = builder.select(builder.fcmp_ordered("<=", tn, reach), tn, inf)
-        lanes = [builder.extract_element(dist, ir.Constant(ir.IntType(32), k)) for k in range(4)]
-        return context.make_tuple(builder, signature.return_type, lanes)
+        return _entered(context, builder, signature, tn, tf, wid)
 
     return sig, codegen
 

@@ -33,6 +33,17 @@ def _row(builder, data, offset):
     return builder.fpext(builder.load(ptr, align=4), _F64x4)
 
 
+def _entered(context, builder, signature, tn, tf, widen):
+    """The node test's result from the lanes' entry (tn) and exit (tf) distances: a tuple of 4 float64, tn where
+    tn <= tf + |tf| * widen (the box is entered), else inf."""
+    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_F64x4, [_F64x4]), "llvm.fabs.v4f64")
+    reach = builder.fadd(tf, builder.fmul(builder.call(fabs, [tf]), _splat(builder, widen)))
+    inf = _splat(builder, ir.Constant(ir.DoubleType(), float("inf")))
+    dist = builder.select(builder.fcmp_ordered("<=", tn, reach), tn, inf)
+    lanes = [builder.extract_element(dist, ir.Constant(ir.IntType(32), k)) for k in range(4)]
+    return context.make_tuple(builder, signature.return_type, lanes)
+
+
 @intrinsic
 def entry4(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, o, inv, t_lo, t_hi, widen):
     """(d0, d1, d2, d3): entry distance of the ray into each of the 4 boxes whose planes are the float32 rows at
@@ -56,12 +67,7 @@ def entry4(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, o, in
             b = builder.fmul(builder.fsub(_row(builder, data, far), ov), iv)
             tn = builder.select(builder.fcmp_ordered(">", a, tn), a, tn)
             tf = builder.select(builder.fcmp_ordered("<", b, tf), b, tf)
-        fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_F64x4, [_F64x4]), "llvm.fabs.v4f64")
-        reach = builder.fadd(tf, builder.fmul(builder.call(fabs, [tf]), _splat(builder, wid)))
-        inf = _splat(builder, ir.Constant(ir.DoubleType(), float("inf")))
-        dist = builder.select(builder.fcmp_ordered("<=", tn, reach), tn, inf)
-        lanes = [builder.extract_element(dist, ir.Constant(ir.IntType(32), k)) for k in range(4)]
-        return context.make_tuple(builder, signature.return_type, lanes)
+        return _entered(context, builder, signature, tn, tf, wid)
 
     return sig, codegen
 
