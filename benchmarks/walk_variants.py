@@ -53,6 +53,8 @@ VARIANTS = {
     "nodiv+usp": dict(nodiv=True, usp=True),
     "nodiv+csel+usp+fma+loops": dict(nodiv=True, csel=True, usp=True, fma=True, loops=True),
     "fma": dict(fma=True),
+    "f32": dict(nodiv=True, csel=True, usp=True, f32=True),
+    "kept (control)": dict(nodiv=True, csel=True, usp=True),
 }
 
 
@@ -118,7 +120,117 @@ def entry4_fma(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, w
     return sig, codegen
 
 
-def make_walk(nodiv=False, csel=False, usp=False, fma=False, loops=False):
+_F32x4 = ir.VectorType(ir.FloatType(), 4)
+_C32 = 2.0 ** -21      # the float32 node test's relative margin (8 units of float32 rounding): entry4_f32
+_TINY32 = 2.0 ** -125  # and its absolute one, for results below float32's normal range
+
+
+def _splat32(builder, value, width=4):
+    """A <width x float> with `value` (a float) in every lane."""
+    vec = ir.Constant(ir.VectorType(ir.FloatType(), width), ir.Undefined)
+    for lane in range(width):
+        vec = builder.insert_element(vec, value, ir.Constant(ir.IntType(32), lane))
+    return vec
+
+
+def _slabs32(builder, data, rows, on, of, inv, width):
+    """The float32 slab test of `width` boxes: (entry lower bound, exit upper bound) as <width x float>, before the
+    margins (entry4_f32). rows: the 6 flat offsets near x, far x, near y, ...; a NaN lane of an axis is ignored."""
+    vt = ir.VectorType(ir.FloatType(), width)
+    f32 = ir.FloatType()
+    tn = _splat32(builder, ir.Constant(f32, float("-inf")), width)
+    tf = _splat32(builder, ir.Constant(f32, float("inf")), width)
+    for axis in range(3):
+        near, far = rows[2 * axis], rows[2 * axis + 1]
+        iv = _splat32(builder, builder.extract_value(inv, axis), width)
+        onv = _splat32(builder, builder.extract_value(on, axis), width)
+        ofv = _splat32(builder, builder.extract_value(of, axis), width)
+        pn = builder.load(builder.bitcast(builder.gep(data, [near]), vt.as_pointer()), align=4)
+        pf = builder.load(builder.bitcast(builder.gep(data, [far]), vt.as_pointer()), align=4)
+        a = builder.fmul(builder.fsub(pn, onv), iv)
+        b = builder.fmul(builder.fsub(pf, ofv), iv)
+        tn = builder.select(builder.fcmp_ordered(">", a, tn), a, tn)
+        tf = builder.select(builder.fcmp_ordered("<", b, tf), b, tf)
+    return tn, tf
+
+
+def _margins32(builder, tn, tf, width):
+    """The entry bound moved down and the exit bound up by a relative 2^-21 and an absolute 2^-125:
+    min(fma(tn, 1 - c, -tiny), fma(tn, 1 + c, -tiny)) and max(fma(tf, 1 - c, tiny), fma(tf, 1 + c, tiny)), which
+    keeps infinities (an empty lane's box at +inf still misses) where tn - |tn| c would give inf - inf = NaN."""
+    vt = ir.VectorType(ir.FloatType(), width)
+    f32 = ir.FloatType()
+    fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vt, [vt] * 3), f"llvm.fma.v{width}f32")
+    dn = _splat32(builder, ir.Constant(f32, 1.0 - _C32), width)
+    up = _splat32(builder, ir.Constant(f32, 1.0 + _C32), width)
+    tiny = _splat32(builder, ir.Constant(f32, _TINY32), width)
+    ntiny = _splat32(builder, ir.Constant(f32, -_TINY32), width)
+    a, b = builder.call(fma, [tn, dn, ntiny]), builder.call(fma, [tn, up, ntiny])
+    lo = builder.select(builder.fcmp_ordered("<", a, b), a, b)
+    a, b = builder.call(fma, [tf, dn, tiny]), builder.call(fma, [tf, up, tiny])
+    hi = builder.select(builder.fcmp_ordered(">", a, b), a, b)
+    return lo, hi
+
+
+@intrinsic
+def entry4_f32(typingctx, bounds, near_x, far_x, near_y, far_y, near_z, far_z, on, of, inv, t_lo, t_hi, widen):
+    """simd.entry4 with the slab test in float32 lanes: on / of are the per-ray float32 origins for the near /
+    far planes (rounded towards the box side that makes the distance a bound: ray_setup_f32), inv the float32
+    1/d; the bounds are widened by a relative 2^-21 and an absolute 2^-125, widened to float64 and then met with
+    t_lo / t_hi and the same entered test as entry4."""
+    f64 = types.float64
+    sig = types.UniTuple(f64, 4)(bounds, near_x, far_x, near_y, far_y, near_z, far_z, on, of, inv, t_lo, t_hi, widen)
+
+    def codegen(context, builder, signature, args):
+        arr, nx, fx, ny, fy, nz, fz, onear, ofar, inverse, lo, hi, wid = args
+        data = cgutils.create_struct_proxy(signature.args[0])(context, builder, value=arr).data
+        tn, tf = _slabs32(builder, data, (nx, fx, ny, fy, nz, fz), onear, ofar, inverse, 4)
+        tn, tf = _margins32(builder, tn, tf, 4)
+        tn, tf = builder.fpext(tn, _F64x4), builder.fpext(tf, _F64x4)
+        lov, hiv = _splat(builder, lo), _splat(builder, hi)
+        tn = builder.select(builder.fcmp_ordered(">", tn, lov), tn, lov)
+        tf = builder.select(builder.fcmp_ordered("<", tf, hiv), tf, hiv)
+        return _entered(context, builder, signature, tn, tf, wid)
+
+    return sig, codegen
+
+
+@nb.njit(inline="always", **_JIT)
+def _axis_f32(o, d, inv):
+    """(near origin, far origin, 1/d) of one axis in float32 for entry4_f32: o rounded up and down to float32
+    (near takes the one that makes (plane - o) * inv smaller, far the larger), 1/d to nearest; an axis whose
+    |1/d| is beyond 2^120 (|d| < 2^-120 but not 0) gets NaN (the test then ignores it); d = 0 (inv = 1e300, the
+    float64 test's stand-in) gets +inf."""
+    f = np.float32(o)
+    up = np.nextafter(f, np.float32(np.inf)) if np.float64(f) < o else f
+    dn = np.nextafter(f, np.float32(-np.inf)) if np.float64(f) > o else f
+    if d == 0.0:
+        i32 = np.float32(np.inf)
+    elif abs(inv) > 2.0 ** 120:
+        i32 = np.float32(np.nan)
+    else:
+        i32 = np.float32(inv)
+    if inv >= 0.0:
+        return up, dn, i32
+    return dn, up, i32
+
+
+@nb.njit(inline="always", **_JIT)
+def ray_setup_f32(ox, oy, oz, dx, dy, dz, idx, idy, idz):
+    """The per-ray float32 constants of entry4_f32: (near origins), (far origins), (1/d) as tuples. A ray outside
+    the proof's domain (|o| > 2^100, or its largest |d| outside [2^-60, 2^60], NaNs included) gets NaN for every
+    1/d: it then enters every box (correct, only slower)."""
+    nx, fx, ix = _axis_f32(ox, dx, idx)
+    ny, fy, iy = _axis_f32(oy, dy, idy)
+    nz, fz, iz = _axis_f32(oz, dz, idz)
+    dmax = max(abs(dx), max(abs(dy), abs(dz)))
+    if not (dmax >= 2.0 ** -60 and dmax <= 2.0 ** 60 and max(abs(ox), max(abs(oy), abs(oz))) <= 2.0 ** 100):
+        nan = np.float32(np.nan)
+        ix, iy, iz = nan, nan, nan
+    return (nx, ny, nz), (fx, fy, fz), (ix, iy, iz)
+
+
+def make_walk(nodiv=False, csel=False, usp=False, fma=False, loops=False, f32=False):
     """The closest-hit walk of blas_closest (triangles only) with the named pieces swapped (each flag picks a
     helper here, in Python, so Numba types only the chosen code)."""
 
@@ -148,7 +260,12 @@ def make_walk(nodiv=False, csel=False, usp=False, fma=False, loops=False):
         return entry4_fma(bounds, base + rx, base + (_UX - rx), base + ry, base + (_UY - ry), base + rz,
                           base + (_UZ - rz), wn, wf, (idx, idy, idz), t_lo, t_hi, FAR_WIDEN)
 
-    dists = dists_fma if fma else dists_sub
+    @nb.njit(inline="always", **_JIT)
+    def dists_f32(bounds, base, rx, ry, rz, ox, oy, oz, idx, idy, idz, wn, wf, t_lo, t_hi):
+        return entry4_f32(bounds, base + rx, base + (_UX - rx), base + ry, base + (_UY - ry), base + rz,
+                          base + (_UZ - rz), wn, wf, (idx, idy, idz), t_lo, t_hi, FAR_WIDEN)
+
+    dists = dists_f32 if f32 else (dists_fma if fma else dists_sub)
 
     @nb.njit(inline="always", **_JIT)
     def codes_plain(child, node):
@@ -298,7 +415,14 @@ def make_walk(nodiv=False, csel=False, usp=False, fma=False, loops=False):
         idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
         return idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
 
-    setup = setup_fma if fma else setup_sub
+    @nb.njit(inline="always", **_JIT)
+    def setup_f32(ox, oy, oz, dx, dy, dz):
+        """ray_setup, and the float32 origins and 1/d of entry4_f32 (passed on as wn, wf, idx..idz)."""
+        idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+        on, of, inv = ray_setup_f32(ox, oy, oz, dx, dy, dz, idx, idy, idz)
+        return inv[0], inv[1], inv[2], nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz, on, of
+
+    setup = setup_f32 if f32 else (setup_fma if fma else setup_sub)
 
     @nb.njit(**_JIT, _nrt=False)
     def walk_branch(bounds, child, root, leaf_prim, leaf_tri, ox, oy, oz, dx, dy, dz, t_min, t_max, stack_node,
@@ -463,6 +587,20 @@ def make_run_any(walk):
     return run
 
 
+def diff_report(out: np.ndarray, ref: np.ndarray) -> str:
+    """"yes" when (t, kind, prim, u, v) agree to the bit, else how many rays differ: in t (a real difference:
+    an escape or a wrong hit), in t's class (hit / miss), or only in (prim, u, v) at the same t (a tie: the ray
+    meets two triangles at one t, through a shared edge or vertex, and the visit order picked the other)."""
+    bits, rbits = out.view(np.int64), ref.view(np.int64)
+    rows = np.any(bits != rbits, axis=1)
+    if not rows.any():
+        return "yes"
+    t_differs = bits[:, 0] != rbits[:, 0]
+    escapes = int(np.sum(np.isfinite(ref[:, 0]) & ~np.isfinite(out[:, 0])))
+    return (f"no: {int(rows.sum())} rays differ, {int(t_differs.sum())} in t ({escapes} escapes), "
+            f"{int((rows & ~t_differs).sum())} ties (same t, other prim)")
+
+
 def timed(fn) -> float:
     start = time.thread_time()
     fn()
@@ -489,7 +627,7 @@ def main() -> None:
         run_b = make_run(make_walk(**flags))
         out = np.empty_like(ref)
         run_b(*args, out)
-        same = np.array_equal(out.view(np.int64), ref.view(np.int64))
+        same = diff_report(out, ref)
         ratios, ta, tb = [], [], []
         for k in range(a.pairs):
             first, second = (run_a, run_b) if k % 2 == 0 else (run_b, run_a)
