@@ -105,3 +105,40 @@ def test_closest_walk_through_a_deep_stack():
     o = np.column_stack([rng.choice([-10.0, 110.0], n), rng.uniform(-0.5, 0.5, (n, 2))])
     d = np.column_stack([np.where(o[:, 0] < 0, 1.0, -1.0), rng.normal(scale=0.003, size=(n, 2))])
     _check_against_brute_force(tri, o, d)
+
+
+@nb.njit
+def _any_both_paths(bounds, child, leaf_prim, leaf_tri, o, d, t_max, stack_size, out):
+    """blas_any per ray twice: sphere arrays empty (the triangles-only leaf loop) and holding one sphere that no
+    leaf names (the general loop, which checks each slot's kind)."""
+    stack_node = np.empty(stack_size, np.int32)
+    center, radius, w2o = np.zeros((1, 3)), np.ones(1), np.zeros((1, 3, 4))
+    for i in range(o.shape[0]):
+        out[i, 0] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, _E3, _E1, _E34, o[i, 0], o[i, 1], o[i, 2],
+                             d[i, 0], d[i, 1], d[i, 2], 0.0, t_max[i], stack_node)
+        out[i, 1] = blas_any(bounds, child, 0, leaf_prim, leaf_tri, center, radius, w2o, o[i, 0], o[i, 1], o[i, 2],
+                             d[i, 0], d[i, 1], d[i, 2], 0.0, t_max[i], stack_node)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(1, 200))
+def test_any_walk_triangles_only_path_agrees(seed, n_tri):
+    """blas_any's leaf loop for trees without spheres (chosen once per call) answers as the general one and as brute
+    force, on grid vertices with rays aimed at vertices and shadow-ray limits just before and after the closest hit."""
+    rng = np.random.default_rng(seed)
+    tri = np.round(rng.uniform(0, 4, (n_tri, 3, 3)) * 4) / 4
+    n = 300
+    o = np.round(rng.uniform(-1, 5, (n, 3)) * 4) / 4
+    d = tri.reshape(-1, 3)[rng.integers(0, 3 * n_tri, n)] - o
+    d[np.all(d == 0.0, axis=1)] = (0.0, 0.0, 1.0)
+    tree = build_tree(tri, np.zeros((0, 3)), np.zeros((0, 3)))
+    cs = compile_scene(Scene(camera=None, group=Group([TriangleMesh(tri.reshape(-1, 3),
+                                                                    np.arange(3 * n_tri).reshape(-1, 3))])))
+    ref = BruteForce(cs).closest_hit(o, d, t_min=0.0)
+    for scale, expect in ((np.inf, ref.hit), (0.999, np.zeros(n, np.bool_)), (1.001, ref.hit)):
+        t_max = np.where(ref.hit, ref.t * scale, np.inf) if scale != np.inf else np.full(n, np.inf)
+        out = np.empty((n, 2), np.bool_)
+        _any_both_paths(tree.bounds.reshape(-1), tree.child, tree.leaf_prim, tree.leaf_tri.reshape(-1), o, d, t_max,
+                        tree.stack_size, out)
+        np.testing.assert_array_equal(out[:, 0], out[:, 1])
+        np.testing.assert_array_equal(out[:, 0], expect)  # nothing is closer than the closest hit
