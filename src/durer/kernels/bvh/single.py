@@ -310,7 +310,8 @@ def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
         first, end = leaf_range(node)
         if triangles_only:  # no slot to tell apart: the triangle test alone, leaf_prim never read
             for j in range(first, end):
-                if watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max)[0] < np.inf:
+                t = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max)[0]
+                if t < np.inf:
                     return True
             continue
         for j in range(first, end):
