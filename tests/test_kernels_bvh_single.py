@@ -108,9 +108,9 @@ def test_closest_walk_through_a_deep_stack():
 
 
 @nb.njit
-def _any_both_paths(bounds, child, leaf_prim, leaf_tri, o, d, t_max, stack_size, out):
-    """blas_any per ray twice: sphere arrays empty (the triangles-only leaf loop) and holding one sphere that no
-    leaf names (the general loop, which checks each slot's kind)."""
+def _any_with_and_without_spheres(bounds, child, leaf_prim, leaf_tri, o, d, t_max, stack_size, out):
+    """blas_any per ray twice: sphere arrays empty and holding one sphere that no leaf names (the slots are still
+    told apart by leaf_prim's sign, whatever the sphere arrays hold)."""
     stack_node = np.empty(stack_size, np.int32)
     center, radius, w2o = np.zeros((1, 3)), np.ones(1), np.zeros((1, 3, 4))
     for i in range(o.shape[0]):
@@ -122,9 +122,9 @@ def _any_both_paths(bounds, child, leaf_prim, leaf_tri, o, d, t_max, stack_size,
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(1, 200))
-def test_any_walk_triangles_only_path_agrees(seed, n_tri):
-    """blas_any's leaf loop for trees without spheres (chosen once per call) answers as the general one and as brute
-    force, on grid vertices with rays aimed at vertices and shadow-ray limits just before and after the closest hit."""
+def test_any_walk_on_shadow_ray_limits(seed, n_tri):
+    """blas_any answers as brute force, with or without sphere arrays beside a triangle tree, on grid vertices with
+    rays aimed at vertices and t_max just before (nothing is closer than the closest hit) and after the closest hit."""
     rng = np.random.default_rng(seed)
     tri = np.round(rng.uniform(0, 4, (n_tri, 3, 3)) * 4) / 4
     n = 300
@@ -138,7 +138,7 @@ def test_any_walk_triangles_only_path_agrees(seed, n_tri):
     for scale, expect in ((np.inf, ref.hit), (0.999, np.zeros(n, np.bool_)), (1.001, ref.hit)):
         t_max = np.where(ref.hit, ref.t * scale, np.inf) if scale != np.inf else np.full(n, np.inf)
         out = np.empty((n, 2), np.bool_)
-        _any_both_paths(tree.bounds.reshape(-1), tree.child, tree.leaf_prim, tree.leaf_tri.reshape(-1), o, d, t_max,
-                        tree.stack_size, out)
+        _any_with_and_without_spheres(tree.bounds.reshape(-1), tree.child, tree.leaf_prim, tree.leaf_tri.reshape(-1),
+                                      o, d, t_max, tree.stack_size, out)
         np.testing.assert_array_equal(out[:, 0], out[:, 1])
         np.testing.assert_array_equal(out[:, 0], expect)  # nothing is closer than the closest hit

@@ -283,13 +283,8 @@ def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
     pointer moves when the box is entered; the stack keeps spare entries: stack_size_for). Paired against
     next_leaf's pushes (a branch per entered box, the codes loaded again, and the arrays' reference counts Numba
     kept for that helper): 0.64x the time with t_max = inf, 0.72x on unoccluded shadow rays (bunny,
-    benchmarks/README.md).
-
-    A tree without spheres (sph_radius empty, decided once per call) tests its leaves' slots as triangles without
-    reading leaf_prim or checking each slot's kind: 0.9x the time on unoccluded shadow rays (benchmarks/README.md,
-    session 17)."""
+    benchmarks/README.md)."""
     idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
-    triangles_only = sph_radius.shape[0] == 0
     stack_node[0] = root
     sp = _U1
     while sp > _U0:
@@ -308,12 +303,6 @@ def blas_any(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, s
             sp += np.uint64(d3 < np.inf)
             continue
         first, end = leaf_range(node)
-        if triangles_only:  # no slot to tell apart: the triangle test alone, leaf_prim never read
-            for j in range(first, end):
-                t = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max)[0]
-                if t < np.inf:
-                    return True
-            continue
         for j in range(first, end):
             if slot_hit(j, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, ox, oy, oz, dx, dy, dz, okx, oky, okz,
                         kx, ky, kz, sx, sy, sz, t_min, t_max)[0] < np.inf:
