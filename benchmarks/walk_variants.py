@@ -10,7 +10,13 @@ Every variant is the same walk built by `make_walk` with some of its pieces swap
     for the prefetch) rather than loaded again at child[node, nearest] after the test;
   * usp: unsigned stack indices (no negative-index wraparound code on each push);
   * fma: the slab test as fma(plane, 1/d, -(o/d)) with o/d rounded outwards per ray (simd.entry4_fma);
-  * loops: "while inner / while leaf": the inner-node visits in a loop of their own.
+  * loops: "while inner / while leaf": the inner-node visits in a loop of their own;
+  * f32: the node test in float32 lanes with a conservative margin (walk_f32.entry4_f32, the proof there).
+Besides those (session 17): "8-wide f32", the walk over an 8-wide tree collapsed from the 4-wide one with the node
+test in <8 x float> lanes (walk_f32.make_walk8; all 8 children prefetched, 3 or 1 lines of boxes each); and the
+any-hit rows: blas_any against a triangles-only copy ("any branch-free"), against next_leaf's pushes ("any copy"),
+and with a sphere in the sphere arrays ("general leaf loop", the same kernel). Differences are reported as rays
+differing in t (escapes counted) or only in (prim, u, v) at the same t (ties).
 Per variant and mesh: 262,144 incoherent rays (benchmarks/raycases.random_rays), the walk over the batch timed with
 time.thread_time for A (the walk in single.py) and B alternately, --pairs pairs, the median B / A ratio (below 1:
 B is faster) and the results checked equal to the bit (t, kind, prim, u, v). Mesh: the Stanford bunny (Stanford
