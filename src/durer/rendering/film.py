@@ -470,4 +470,4 @@ def pack(inputs, part, start, color, split, sources, moment):
             inputs[r, col], inputs[r, col + 1], inputs[r, col + 2] = src[i, 0], src[i, 1], src[i, 2]
             col += 3
         if moment >= 0:
-            inputs[r, moment] = c0 * c0 + c1 * c1 + c2 * c2
+            inputs[r, moment] = (c0 * c0 + c2 * c2) + c1 * c1  # NumPy's einsum order: the same bits
