@@ -204,3 +204,35 @@ def test_denoise_quality_is_one_of_oidns_presets(cornell):
     with pytest.raises(ValueError, match="unknown denoise quality 'ultra'"):
         durer.render(cornell, 8, 8, denoise=True, denoise_quality="ultra")
     assert main(["render", str(EXAMPLES / "cornell_box.xml"), "-o", "x.png", "--denoise-quality", "ultra"]) == 2
+
+
+def _fresh_prefilter(oidn, image: np.ndarray, name: str) -> np.ndarray:
+    """One feature prefiltered on a device and filter of its own (what denoise._prefilter did per call)."""
+    out = np.empty_like(image)
+    with oidn.Device() as device:
+        device.commit()
+        with oidn.Filter(device, oidn.OIDN_FILTER_TYPE_RT) as flt:
+            flt.set_image(name, image, oidn.OIDN_FORMAT_FLOAT3)
+            flt.set_image(oidn.OIDN_IMAGE_OUTPUT, out, oidn.OIDN_FORMAT_FLOAT3)
+            flt.set_quality(4)
+            flt.commit()
+            flt.execute()
+    return out
+
+
+def test_kept_prefilters_give_a_fresh_devices_output_across_sizes(cornell):
+    """denoise._prefilter keeps its device and a filter per (feature, quality): a second call of another size and
+    a third of the first size rebind the images and give what a fresh device gives, on the same device."""
+    oidn = pytest.importorskip("pyoidn")
+    from durer.rendering import denoise as dn
+
+    devices = []
+    for w, h in ((24, 16), (16, 16), (24, 16)):
+        r = durer.render(cornell, w, h, samples=2, aovs=True)
+        albedo = np.ascontiguousarray(np.clip(r.albedo, 0, 1), np.float32)
+        normal = np.ascontiguousarray(np.clip(r.shading_normals, -1, 1), np.float32)
+        got = dn._prefilter(oidn, albedo, normal, "fast")
+        devices.append(dn._PREFILTERS["device"])
+        assert np.array_equal(got[0], _fresh_prefilter(oidn, albedo, "albedo"))
+        assert np.array_equal(got[1], _fresh_prefilter(oidn, normal, "normal"))
+    assert devices[0] is devices[1] is devices[2]

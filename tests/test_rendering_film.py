@@ -326,3 +326,29 @@ def test_nearest_samples_is_the_argmin_of_the_distance_to_the_centre(m, seed):
         best = first + int(np.argmin(d2))
         assert index[p] == best and depth[p] == t[best] and centre[p] == d2.min()
         np.testing.assert_array_equal(nrm[p], normal[best])
+
+
+@pytest.mark.parametrize("split_width, moment", [(3, 9), (0, -1)])
+def test_pack_writes_what_numpy_copies_write(split_width, moment):
+    """film.pack (a denoised render's one-pass copy) equals the NumPy copies it replaced, bit for bit: the colour
+    less the split part, the split part, the features after the colour, the squared norm of the colour."""
+    from durer.rendering.film import pack
+
+    rng = np.random.default_rng(3)
+    n, start, rows = 50, 7, 64
+    color, split, albedo, normal = (rng.normal(size=(n, 3)) for _ in range(4))
+    split = split[:, :split_width] if split_width else np.zeros((1, 0))
+    inputs, part = np.full((rows, 10), -9.0), np.full((rows, 3), -9.0)
+    pack(inputs, part, start, color, split, (albedo, normal), moment)
+    rest = slice(start, start + n)
+    own = color - split if split_width else color
+    assert np.array_equal(inputs[rest, :3], own)
+    assert np.array_equal(inputs[rest, 3:6], albedo) and np.array_equal(inputs[rest, 6:9], normal)
+    if moment >= 0:
+        strided = np.zeros((n, 10))  # the replaced code's einsum over the colour's columns of the (n, C) array
+        strided[:, :3] = own
+        assert np.array_equal(inputs[rest, 9], np.einsum("ij,ij->i", strided[:, :3], strided[:, :3]))
+        assert np.array_equal(part[rest], split)
+    else:
+        assert np.all(inputs[rest, 9] == -9.0) and np.all(part == -9.0)
+    assert np.all(inputs[:start] == -9.0) and np.all(inputs[start + n:] == -9.0)

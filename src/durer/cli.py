@@ -236,7 +236,8 @@ def render_parser() -> argparse.ArgumentParser:
     p.add_argument("--denoise", action="store_true",
                    help='denoise the colour with Intel Open Image Denoise (needs pip install "durer[denoise]")')
     p.add_argument("--denoise-quality", choices=DENOISE_QUALITIES, default="high",
-                   help="OIDN's preset: high (default), balanced or fast (less time, more error)")
+                   help="OIDN's preset: high (default, the lowest error; a denoised 16-spp render costs about "
+                        "+27%% time), balanced (+15%%) or fast (+9%%; 3-38%% more error)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or timing")
     from .cli_frames import add_arguments
 

@@ -447,3 +447,27 @@ def gather(points: np.ndarray, values: np.ndarray, per_pixel: int, halo: tuple[i
     _gather(np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(values, dtype=np.float64),
             int(per_pixel), halo, tile, int(width), int(height), _FILTER_CODES[options.filter],
             float(options.filter_radius), cubic(options), support_radius(options), acc, wsum)
+
+
+@nb.njit(cache=True)
+def pack(inputs, part, start, color, split, sources, moment):
+    """One batch of a denoised render's per-sample values copied into the film's arrays in one pass, rows start
+    onward (units._Values): inputs[:, :3] the colour less the split part (split (n, k <= 3), also copied to
+    part; k = 0: none), then each (n, 3) source in order, and inputs[:, moment] the squared norm of that colour
+    (moment < 0: none). Each row is written once while its sources are in the cache: the NumPy copies, one
+    strided pass per output, were most of the film's own cost (benchmarks/README.md)."""
+    n, k = color.shape[0], split.shape[1]
+    for i in range(n):
+        r = start + i
+        c0, c1, c2 = color[i, 0], color[i, 1], color[i, 2]
+        if k:
+            s0, s1, s2 = split[i, 0], split[i, 1], split[i, 2]
+            part[r, 0], part[r, 1], part[r, 2] = s0, s1, s2
+            c0, c1, c2 = c0 - s0, c1 - s1, c2 - s2
+        inputs[r, 0], inputs[r, 1], inputs[r, 2] = c0, c1, c2
+        col = 3
+        for src in sources:
+            inputs[r, col], inputs[r, col + 1], inputs[r, col + 2] = src[i, 0], src[i, 1], src[i, 2]
+            col += 3
+        if moment >= 0:
+            inputs[r, moment] = (c0 * c0 + c2 * c2) + c1 * c1  # NumPy's einsum order: the same bits

@@ -64,6 +64,7 @@ MIN_SHARED_SIDE = 32    # ... but not into tiles under this side: a unit's fixed
 HALO_SIDES = 32         # a tile is at least this many filter radii wide: ((32 + 2) / 32)^2 = 1.13x the rays at most
 BASE = ("color", "t", "normal")  # SampleResult's own fields; any other non-None (N,k) field is an AOV
 SPLIT_WEIGHT = "split_weight"  # a denoised render's channel: the scene filter's weights of the split part's samples
+_NO_SPLIT = np.zeros((1, 0))  # film.pack's split when nothing is kept out
 UNREAD = ("environment",)  # a denoised render films these only when options.aovs asks: nothing reads them
 
 
@@ -371,9 +372,19 @@ class _Values:
         if not every:
             self.inputs[:, :3] = background  # film points without a ray (outside a fisheye's circle)
         self.alpha, self.moment = options.alpha, options.denoise
+        # film.pack's one pass: every ray traced (sel a slice), 3-wide features right after the colour
+        self.packed = (every and not options.alpha and len(self.split) <= 1 and len(own) > options.denoise
+                       and all(k == 3 for _, k in own[:len(own) - options.denoise] + self.split))
 
     def put(self, sel, res: SampleResult) -> None:
         """Copy one batch's results (rays `sel` of the unit) into place."""
+        if self.packed:
+            f64 = np.ascontiguousarray
+            split = f64(getattr(res, self.split[0][0]), np.float64) if self.split else _NO_SPLIT
+            sources = tuple(f64(getattr(res, name), np.float64) for name in self.at if name != MOMENT)
+            film.pack(self.inputs, self.part, sel.start, f64(res.color, np.float64), split, sources,
+                      self.at[MOMENT].start if self.moment else -1)
+            return
         n, lo, split = len(res.t), 0, None
         for name, k in self.split:
             value = np.reshape(getattr(res, name), (n, k))
@@ -392,7 +403,7 @@ class _Values:
         the squared norm of the colour (the blend's variance, summed over channels, needs no more)."""
         if self.alpha:
             self.inputs[:, self.at["alpha"]] = np.isfinite(t)[:, None]
-        if self.moment:
+        if self.moment and not self.packed:
             self.inputs[:, self.at[MOMENT]] = np.einsum("ij,ij->i", self.inputs[:, :3], self.inputs[:, :3])[:, None]
         return self
 
