@@ -5,6 +5,7 @@ are the same to the bit, and the inside answers those of the exact winding rule.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -61,7 +62,7 @@ def test_a_packet_counts_what_each_ray_counts_alone():
         base = rng.uniform([-1.4, -1.4, -0.4], [1.4, 1.4, 0.4])
         o = base + rng.uniform(-0.02, 0.02, (PACKET, 3))
         d = np.array([0.3, -0.4, 0.9]) + rng.uniform(-0.01, 0.01, (PACKET, 3))
-        rr, ro = packet_rows(), packet_rows()
+        rr = packet_rows()
         ok, nrx, nry, nrz, kx, ky, kz = packet_setup(o, d, np.full(PACKET, -1e-9), np.full(PACKET, np.inf),
                                                      np.arange(PACKET), PACKET, rr, np.inf)
         assert ok
@@ -73,7 +74,7 @@ def test_a_packet_counts_what_each_ray_counts_alone():
             dl = np.linalg.norm(d[k])
             one, one_bad = signed_crossings(b.bounds, b.child, 0, b.leaf_prim, b.leaf_tri, *o[k], *d[k], 1e-9 * dl,
                                             stack)
-            # packet_setup's t_min is -1e-9 for every ray; the one-ray walk's is -t_eps / |d|: the same here
+            # t_min -1e-9 here, -t_eps / |d| there: equal to rounding, and no ray starts that near the surface
             assert bad[k] == one_bad
             if not one_bad:
                 assert signed[k] == one
@@ -85,7 +86,7 @@ def test_closed_torus_packets_equal_single_rays():
     t = _torus()
     s = RaycastingScene()
     s.add_triangles(np.asarray(t.vertices), np.asarray(t.faces))
-    _same_as_one_ray(s, _dense(t.bounds[0], t.bounds[1], 60000, 1))
+    _same_as_one_ray(s, _dense(t.bounds[0], t.bounds[1], 30000, 1))
 
 
 def test_holed_torus_with_caps_packets_equal_single_rays():
@@ -93,9 +94,10 @@ def test_holed_torus_with_caps_packets_equal_single_rays():
     s = RaycastingScene()
     s.add_triangles(np.asarray(t.vertices), np.asarray(t.faces))
     assert not s._distance_index().closed and s._distance_index().caps is not None
-    _same_as_one_ray(s, _dense(t.bounds[0], t.bounds[1], 60000, 2))
+    _same_as_one_ray(s, _dense(t.bounds[0], t.bounds[1], 30000, 2))
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None)
 @given(angle=st.floats(0.0, 6.2), scale=st.floats(0.3, 3.0), mirror=st.booleans(), seed=st.integers(0, 10**6))
 def test_placed_instances_and_a_sphere_packets_equal_single_rays(angle, scale, mirror, seed):
@@ -112,4 +114,4 @@ def test_placed_instances_and_a_sphere_packets_equal_single_rays(angle, scale, m
     s.add_instance(g, m)
     s.add_sphere([0.0, 0.0, 0.8], 0.4)
     r = 1.4 * max(scale, 1.0) + 0.6
-    _same_as_one_ray(s, _dense([-r, -r, -r], [r, r, r], 20000, seed))
+    _same_as_one_ray(s, _dense([-r, -r, -r], [r, r, r], 8000, seed))
