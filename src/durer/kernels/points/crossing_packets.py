@@ -130,11 +130,16 @@ def packet_crossings(bounds, child, root, leaf_prim, leaf_tri, nrx, nry, nrz, kx
 
 @nb.njit(**JIT, inline="always")
 def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim, leaf_tri, i0, points, rx, ry, rz,
-                    packet, rr, ro, t_eps, stack, key, order, signed, w, bad):
+                    packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad):
     """Mesh instance k's signed crossings, times its sign, added into w for the chunk's PACKET points from i0: as
-    a packet when the chunk and its rays moved into object space are coherent, else ray by ray."""
+    a packet when the chunk and its rays moved into object space are coherent, else ray by ray. moved is the
+    packet ro's state (coherent, nrx, nry, nrz, kx, ky, kz, the (3, 4) matrix it was moved by): a matrix equal to
+    it (a cap placed as its mesh) reuses ro. Returns the state."""
     m = inst_w2o[k]
-    coherent, nrx, nry, nrz, kx, ky, kz = object_packet(rr, ro, m)  # rr is scratch when not packet
+    if not _same_matrix(m, moved[7]):
+        c, nrx, nry, nrz, kx, ky, kz = object_packet(rr, ro, m)  # rr is scratch when not packet
+        moved = (c, nrx, nry, nrz, kx, ky, kz, m)
+    coherent, nrx, nry, nrz, kx, ky, kz, _ = moved
     if packet and coherent:
         tlo = np.inf
         for r in range(PACKET):
@@ -148,7 +153,7 @@ def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim,
                          stack, key, order, signed, bad)
         for r in range(PACKET):
             w[r] += inst_sign[k] * signed[r]
-        return
+        return moved
     for r in range(rx.shape[0]):
         if bad[r]:
             continue
@@ -161,6 +166,17 @@ def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim,
         s, b = signed_crossings(bounds, child, inst_root[k], leaf_prim, leaf_tri, ox, oy, oz, dx, dy, dz, t_eps, stack)
         bad[r] = b
         w[r] += inst_sign[k] * s
+    return moved
+
+
+@nb.njit(**JIT, inline="always")
+def _same_matrix(a, b):
+    """Whether two (3, 4) matrices are equal entry by entry."""
+    same = True
+    for r in range(3):
+        for c in range(4):
+            same &= a[r, c] == b[r, c]
+    return same
 
 
 @nb.njit(**JIT)
@@ -184,6 +200,7 @@ def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, i
     o16, d16 = np.empty((PACKET, 3)), np.empty((PACKET, 3))
     t0, t1, idx = np.zeros(PACKET), np.full(PACKET, np.inf), np.arange(PACKET)
     signed, w, bad = np.empty(PACKET), np.empty(PACKET), np.empty(PACKET, np.bool_)
+    nan_matrix = np.full((3, 4), np.nan)  # equal to no matrix
     for i0 in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK), PACKET):
         m = min(n, i0 + PACKET) - i0
         rx, ry, rz = d16[:m, 0], d16[:m, 1], d16[:m, 2]
@@ -195,6 +212,7 @@ def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, i
             w[r] = 0.0
             bad[r] = False
         packet = m == PACKET and packet_setup(o16, d16, t0, t1, idx, PACKET, rr, max_spread)[0]
+        moved = (False, 0, 0, 0, 0, 0, 0, nan_matrix)  # ro moved by no matrix yet
         for k in range(inst_root.shape[0]):
             s = inst_sphere[k]
             if s >= 0:
@@ -203,11 +221,11 @@ def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, i
                     w[r] += sphere_winding(ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2],
                                            sph_radius[s])
                 continue
-            _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim, leaf_tri, i0, points, rx, ry,
-                            rz, packet, rr, ro, t_eps, stack, key, order, signed, w, bad)
+            moved = _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim, leaf_tri, i0, points,
+                                    rx, ry, rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad)
         for k in range(c_root.shape[0]):  # the caps (meshes only), as above
-            _mesh_crossings(k, c_w2o, c_root, c_sign, c_bounds, c_child, c_prim, c_tri, i0, points, rx, ry, rz,
-                            packet, rr, ro, t_eps, stack, key, order, signed, w, bad)
+            moved = _mesh_crossings(k, c_w2o, c_root, c_sign, c_bounds, c_child, c_prim, c_tri, i0, points, rx, ry,
+                                    rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad)
         for r in range(m):
             i = i0 + r
             if not bad[r] and c_root.shape[0] > 0:
