@@ -11,7 +11,8 @@ ray starts t_eps behind the point to find it), is marked unsure, and the caller 
 (accel/distance.py). A point exactly on an edge or a vertex where the surface folds away from its ray meets no
 crossing there and keeps the ray's answer: on the surface the winding number is not an integer and the winding
 rule's value there is rounding noise (tests/test_kernels_points_crossings.py). An open mesh is closed by a cap
-(accel/caps.py), a second tree that the same ray crosses in the same pass.
+(accel/caps.py), a second tree that the same ray crosses in the same pass. The points' rays are walked in
+packets by kernels/points/crossing_packets.py, which falls back on this one-ray walk.
 """
 
 from __future__ import annotations
@@ -24,8 +25,6 @@ from ..bvh.layout import leaf_range
 from ..bvh.single import node_dists4, prefetch_children, ray_setup
 from ..common import JIT
 from ..intersect import watertight_triangle
-from .closest import POINTS_PER_BLOCK
-from .winding import away_from, lane_bound, object_point, sphere_winding
 
 EDGE_MARGIN = 1e-6  # barycentric distance to an edge below which a crossing is not trusted
 GRAZE = 1e-6        # |cos| between the ray and a triangle's normal below which a crossing is not trusted
@@ -78,56 +77,3 @@ def signed_crossings(bounds, child, root, leaf_prim, leaf_tri, ox, oy, oz, dx, d
                 return signed, True
             signed += 1.0 if c > 0.0 else -1.0
     return signed, False
-
-
-@nb.njit(**JIT)
-def ray_windings(points, tilt, center, t_eps, inst_root, inst_w2o, inst_sign, inst_sphere, bounds, child, leaf_prim,
-                 leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps, cap_lanes, w_out, unsure, bound, blk0,
-                 blk1):
-    """w_out[i] = the winding number of point i (blocks blk0..blk1) over all instances: for a mesh instance the
-    signed count of one ray's crossings (signed_crossings, along tilt + the unit direction from `center` to the
-    point, moved into the instance's object space, times the instance's inst_sign), for a sphere instance 1
-    inside, 1/2 on the surface (as winding_numbers_instances). unsure[i] = True when a crossing is not clean
-    (module docstring): w_out[i] is then not to be used. `caps`, a second tree's arguments in the same order
-    (inst_root .. sph_w2o, then its stack size; no instances: none), is crossed by the same ray and its count
-    added (accel/caps.py), and bound[i] = winding.lane_bounds' bound on its winding number from cap_lanes. Every
-    mesh instance of the two together must be closed and consistently oriented (the caller checks)."""
-    n = points.shape[0]
-    c_root, c_w2o, c_sign, _, c_bounds, c_child, c_prim, c_tri, _, _, _, c_stack = caps
-    stack = np.empty(max(stack_size, c_stack, 1) * 4, np.int32)
-    for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
-        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        ax, ay, az = away_from(center, px, py, pz)
-        rx, ry, rz = tilt[0] + ax, tilt[1] + ay, tilt[2] + az
-        w = 0.0
-        bad = False
-        for k in range(inst_root.shape[0]):
-            s, m = inst_sphere[k], inst_w2o[k]
-            ox, oy, oz = object_point(m, px, py, pz)
-            if s >= 0:
-                w += sphere_winding(ox - sph_center[s, 0], oy - sph_center[s, 1], oz - sph_center[s, 2], sph_radius[s])
-                continue
-            dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
-            dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
-            dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
-            # from just behind the point, so that a surface through it is met (at |t| <= t_eps: unsure)
-            signed, bad = signed_crossings(bounds, child, inst_root[k], leaf_prim, leaf_tri, ox, oy, oz, dx, dy, dz,
-                                           t_eps, stack)
-            if bad:
-                break
-            w += inst_sign[k] * signed
-        if not bad and c_root.shape[0] > 0:
-            for k in range(c_root.shape[0]):  # the caps (meshes only), as above
-                m = c_w2o[k]
-                ox, oy, oz = object_point(m, px, py, pz)
-                dx = m[0, 0] * rx + m[0, 1] * ry + m[0, 2] * rz
-                dy = m[1, 0] * rx + m[1, 1] * ry + m[1, 2] * rz
-                dz = m[2, 0] * rx + m[2, 1] * ry + m[2, 2] * rz
-                signed, bad = signed_crossings(c_bounds, c_child, c_root[k], c_prim, c_tri, ox, oy, oz, dx, dy, dz,
-                                               t_eps, stack)
-                if bad:
-                    break
-                w += c_sign[k] * signed
-            bound[i] = lane_bound(cap_lanes, px, py, pz)
-        w_out[i] = w
-        unsure[i] = bad

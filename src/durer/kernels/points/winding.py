@@ -338,3 +338,10 @@ def lane_bound(lanes, px, py, pz):
         g = np.sqrt(dx * dx + dy * dy + dz * dz) - lanes[q, 3]
         b += lanes[q, 4] / (FOUR_PI * g * g) if g > 0.0 else np.inf
     return b
+
+
+@nb.njit(**JIT)
+def lane_bounds(lanes, points, out):
+    """out[i] = lane_bound(lanes, points[i]) for each point (N, 3): serial, for the few points near the caps."""
+    for i in range(points.shape[0]):
+        out[i] = lane_bound(lanes, points[i, 0], points[i, 1], points[i, 2])
