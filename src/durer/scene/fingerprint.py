@@ -7,7 +7,9 @@ reachable through attributes, lists, tuples, dicts and sets: each value's type a
 and bytes, and which objects are shared (a mesh placed twice is one object: the compiler stores it once, so two
 equal copies must not fingerprint the same). An object it cannot read (no attributes and not picklable, e.g. a
 lambda) makes the fingerprint None: "unknown", which a caller treats as changed. Its cost is one pass over the
-scene's arrays (SHA-256 at about 1.8 GB/s with the CPU's SHA instructions) and a Python step per object.
+scene's arrays and a Python step per object: an array enters the SHA-256 stream as its 64-bit digest
+(kernels/digest.py, about 12 GB/s against SHA-256's 1.8 GB/s here; a change goes unseen with probability about
+2^-64), since the fingerprint is taken at every render and the big bitmaps were up to 16% of a render.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import pickle
 import types
 
 import numpy as np
+
+from ..kernels.digest import digest
 
 _PLAIN = (type(None), bool, int, float, complex, str, bytes)
 _CODE = (types.FunctionType, types.MethodType, types.BuiltinFunctionType, types.ModuleType)
@@ -47,7 +51,7 @@ def fingerprint(obj: object, skip: tuple[str, ...] = ()) -> bytes | None:
                 alive.append(items)
                 stack.extend(reversed(items))
             else:
-                h.update(np.ascontiguousarray(x))
+                h.update(digest(x))
         elif isinstance(x, np.generic):
             h.update(f"{x.dtype.str}:{x!r};".encode())
         elif isinstance(x, (list, tuple)):
