@@ -66,3 +66,21 @@ def test_what_it_cannot_read_is_none_and_deep_trees_are_no_limit():
         node.objects.append(Group([]))
         node = node.objects[-1]
     assert fingerprint(deep) != fingerprint(_scene())
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.binary(min_size=1, max_size=120), st.data())
+def test_any_byte_of_an_array_changed_changes_it(data, draw):
+    i = draw.draw(st.integers(0, len(data) - 1))
+    b = draw.draw(st.integers(0, 255).filter(lambda v: v != data[i]))
+    changed = data[:i] + bytes([b]) + data[i + 1:]
+    assert fingerprint([np.frombuffer(data, np.uint8)]) != fingerprint([np.frombuffer(changed, np.uint8)])
+
+
+def test_array_views_read_their_own_elements_in_c_order():
+    a = np.arange(24.0).reshape(4, 6)
+    assert fingerprint([a[:, 1:]]) == fingerprint([np.ascontiguousarray(a[:, 1:])]) != fingerprint([a[:, :5]])
+    assert fingerprint([a.T]) == fingerprint([np.ascontiguousarray(a.T)]) != fingerprint([a.reshape(6, 4)])
+    assert fingerprint([np.zeros(3, np.uint8)]) != fingerprint([np.zeros(4, np.uint8)])
+    unaligned = np.frombuffer(b"\x00" + a.tobytes(), np.uint8)[1:].view(np.float64).reshape(4, 6)
+    assert fingerprint([unaligned]) == fingerprint([a])
