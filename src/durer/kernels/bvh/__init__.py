@@ -25,8 +25,9 @@ every box in the ray's range);
 
 **Packets** (chunks.py, packet.py). Sixteen coherent rays (a 4 x 4 image tile, or 16 consecutive rays) that share
 direction signs and shear axes walk together: `chunks.packet_setup` checks they are coherent and fills the packet's
-rows (each ray's constants, the packet's extremes); `packet_traverse` pops a node (`packet_pop`), tests each child
-box once for the packet with interval bounds no single ray can beat (`packet_node`), tests a leaf's triangles
+rows (each ray's constants, the packet's extremes); `packet_traverse` pops a node (`packet_pop`), prefetches its
+children (`single.prefetch_children`), tests each child box once for the packet with interval bounds no single ray
+can beat (`packet_node`; in packet_traverse its 4-wide vector form `packet_node4`), tests a leaf's triangles
 against all live rays in a vectorised loop with each ray's own arithmetic (`_edges`), so every ray gets the one-ray
 answer to the bit, and pushes the inner children (`push_inner`).
 
