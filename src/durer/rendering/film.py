@@ -28,8 +28,8 @@ Assignment 7 of the course, for any sample count n:
   options.filter_b and filter_c, Mitsuba's B and C, default 1/3 each, over radius r: Mitsuba's has r = 2),
   `catmullrom` (Mitsuba's: the same cubic with B = 0, C = 1/2, whatever filter_b and filter_c), `lanczos`
   (sinc(x) sinc(x / r), r lobes: Mitsuba's 3) and `mitsuba_gaussian` (exp(-x^2 / 2 sigma^2) less its value at
-  4 sigma, zero beyond: Mitsuba's gaussian). Their negative lobes (mitchell, catmullrom, lanczos) are kept, as
-  Mitsuba keeps them.
+  4 sigma, zero beyond: Mitsuba's gaussian, read from a fine table as Mitsuba's film reads a coarse one,
+  filters.gauss). Their negative lobes (mitchell, catmullrom, lanczos) are kept, as Mitsuba keeps them.
   `reconstruct` filters every sample of an image at once; `gather` does the same for one tile from the samples of
   the tile and its halo (the render's units, units.py), in the same order, so both give the same bits.
 """
@@ -47,6 +47,7 @@ from .filters import (  # noqa: F401  (the filters' names, as film.py has always
     _FILTER_CODES,
     BOX,
     CATMULL_ROM,
+    GAUSS_STEPS,
     GAUSSIAN,
     LANCZOS,
     MITCHELL,
@@ -56,6 +57,7 @@ from .filters import (  # noqa: F401  (the filters' names, as film.py has always
     _weight1,
     cubic,
     filter_weight,
+    gauss,
     support_radius,
 )
 from .integrators import integrator_for
@@ -364,8 +366,7 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
     span = 2 * radius + 1
     n = points.shape[0]
     wx, wy = np.empty((n, span)), np.empty((n, span))
-    a = -1.0 / (2.0 * r * r)  # the Gaussian's: _weight1's operands, its constant exp taken once (the same bits)
-    cut = math.exp(a * 16.0 * r * r)
+    scale = GAUSS_STEPS / (4.0 * r)  # the Gaussian's: _weight1's operands (the same bits)
     for q in range(hh * hw):
         rr, cc = hr + q // hw, hc + q % hw
         for s in range(q * per_pixel, (q + 1) * per_pixel):
@@ -376,8 +377,8 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
                 cy = height - row - 0.5
                 if kind == MITSUBA_GAUSSIAN:
                     x, y = abs(points[s, 0] - cx), abs(points[s, 1] - cy)
-                    wx[s, k] = max(0.0, math.exp(a * x * x) - cut)
-                    wy[s, k] = max(0.0, math.exp(a * y * y) - cut)
+                    wx[s, k] = gauss(x * scale)
+                    wy[s, k] = gauss(y * scale)
                 else:
                     wx[s, k] = _weight1(kind, r, bc, points[s, 0] - cx)
                     wy[s, k] = _weight1(kind, r, bc, points[s, 1] - cy)
