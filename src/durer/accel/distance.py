@@ -60,6 +60,7 @@ CAP_MAX_SHARE = 0.5  # a mesh whose cap would have more triangles than this shar
 # with no limit, 0.92x at 2.5; bunny 1M points (spread ~3 leaves) 1.22x with no limit, 1.00x at 2.5
 PACKET_LEAF_SPREAD = 2.5
 CAP_BOUND_LEVELS = 1  # inside: the caps' |w| bounded again from the lanes this many levels below the roots
+BOX_MARGIN = 1e-6  # inside: points outside the scene's box grown by this times its size count 0 crossings
 SORT_MIN_POINTS = 4096  # fewer points are queried in the caller's order: sorting them would not pay
 
 
@@ -308,17 +309,25 @@ class DistanceIndex:
                        for a in range(3)], axis=0)
         return PACKET_LEAF_SPREAD * float(np.median(side))
 
-    def _ray_windings(self, points: np.ndarray, caps: DistanceIndex | None,
-                      spread: float | None = None) -> tuple[np.ndarray, ...]:
+    def _ray_windings(self, points: np.ndarray, caps: DistanceIndex | None, spread: float | None = None,
+                      skip_outside: bool = True) -> tuple[np.ndarray, ...]:
         """(signed crossings of each point's ray over the meshes and the caps, unsure, bound on the caps' |w|)
         (kernels/points/crossing_packets.ray_windings), in the given order; the ray leaves along RAY_TILT plus the
         unit direction from the scene's middle to the point; packets of them where their origins spread at most
-        `spread` (default packet_spread(): 0 walks every ray alone, inf every coherent packet as one)."""
+        `spread` (default packet_spread(): 0 walks every ray alone, inf every coherent packet as one); points outside
+        the scene's box grown by BOX_MARGIN count 0, unwalked, unless skip_outside is False."""
         p = self.tree.packed
         n = len(points)
         w, unsure, bound = np.empty(n), np.zeros(n, np.bool_), np.zeros(n)
         lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
         t_eps = 1e-9 * max(float(np.linalg.norm(hi - lo)), 1e-300)
+        box_lo, box_hi = lo, hi
+        if caps is not None:
+            box_lo = np.minimum(lo, caps.tree._inst_lo.min(axis=0, initial=np.inf))
+            box_hi = np.maximum(hi, caps.tree._inst_hi.max(axis=0, initial=-np.inf))
+        # far beyond float32 leaf vertices and the matrices' rounding
+        margin = BOX_MARGIN * (float(np.abs(box_hi - box_lo).max()) + float(np.abs([box_lo, box_hi]).max()))
+        box_lo, box_hi = (box_lo - margin, box_hi + margin) if skip_outside else (lo - np.inf, hi + np.inf)
         if caps is None:  # the meshes' own arrays with no rows: the same types, so one compiled kernel
             cap_args = (p.top.inst_root[:0], p.w2o[:0], self.sign[:0], self.inst_sphere[:0],
                         *(a[:0] for a in p.blas), p.stack)
@@ -331,8 +340,8 @@ class DistanceIndex:
             if getattr(self, "_packet_spread", None) is None:  # indexes pickled before the field existed lack it
                 self._packet_spread = self.packet_spread()
             spread = self._packet_spread
-        run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, t_eps, float(spread), p.top.inst_root,
-                   p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, w, unsure, bound)
+        run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, box_lo, box_hi, t_eps, float(spread),
+                   p.top.inst_root, p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, w, unsure, bound)
         return w, unsure, bound
 
     def inside(self, points: np.ndarray, beta: float) -> np.ndarray:
