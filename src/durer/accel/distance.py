@@ -341,7 +341,8 @@ class DistanceIndex:
                 self._packet_spread = self.packet_spread()
             spread = self._packet_spread
         run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, box_lo, box_hi, t_eps, float(spread),
-                   p.top.inst_root, p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, w, unsure, bound)
+                   p.top.inst_root, p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, w, unsure,
+                   bound)
         return w, unsure, bound
 
     def inside(self, points: np.ndarray, beta: float) -> np.ndarray:
