@@ -188,8 +188,8 @@ def _same_matrix(a, b):
 
 @nb.njit(**JIT)
 def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_root, inst_w2o, inst_sign, inst_sphere,
-                 bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps, cap_lanes, w_out,
-                 unsure, bound, blk0, blk1):
+                 bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps, cap_lanes,
+                 w_out, unsure, bound, blk0, blk1):
     """w_out[i] = the winding number of point i (blocks blk0..blk1) over all instances: for a mesh instance the
     signed count of one ray's crossings (along tilt + the unit direction from `center` to the point, moved into
     the instance's object space, times the instance's inst_sign), for a sphere instance 1 inside, 1/2 on the
