@@ -115,3 +115,45 @@ def test_placed_instances_and_a_sphere_packets_equal_single_rays(angle, scale, m
     s.add_sphere([0.0, 0.0, 0.8], 0.4)
     r = 1.4 * max(scale, 1.0) + 0.6
     _same_as_one_ray(s, _dense([-r, -r, -r], [r, r, r], 8000, seed))
+
+
+def _lattice_and_random(lo, hi, grow: float, n: int, seed: int) -> np.ndarray:
+    """A 16^3 lattice and n random points in the box lo..hi grown by `grow` of its size a side, Morton-sorted."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    lo, hi = lo - grow * (hi - lo), hi + grow * (hi - lo)
+    axes = [np.linspace(lo[a], hi[a], 16) for a in range(3)]
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    rand = np.random.default_rng(seed).uniform(lo, hi, (n, 3))
+    return cell_order(np.concatenate([lattice, rand]))[0]
+
+
+@pytest.mark.parametrize("holes", [0, 53])
+def test_points_outside_the_box_count_zero_unwalked(holes):
+    """Points outside the scene's box are not walked (ray_windings' box): their count is the 0 the walk finds on
+    every sure ray, the caps' bounds are unchanged, and the inside answers equal the exact winding rule's, with
+    the torus placed rotated and scaled beside a sphere and the box grown 60% (over half the points outside)."""
+    t = _torus(holes)
+    s = RaycastingScene()
+    g = s.add_triangles(np.asarray(t.vertices), np.asarray(t.faces))
+    m = np.eye(4)
+    m[:3, :3] = 1.3 * np.array([[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]])
+    m[:3, 3] = [0.5, 0.3, 0.2]
+    s.add_instance(g, m)
+    s.add_sphere([0.0, 0.0, 0.9], 0.4)
+    index = s._distance_index()
+    caps = None if index.closed else index.caps
+    assert (caps is None) == (holes == 0)
+    lo, hi = index.tree._inst_lo.min(axis=0), index.tree._inst_hi.max(axis=0)
+    points = _lattice_and_random(lo, hi, 0.6, 12000, holes)
+    outside = np.any((points < lo) | (points > hi), axis=1)
+    assert outside.mean() > 0.5
+    w, unsure, bound = index._ray_windings(points, caps)
+    w0, unsure0, bound0 = index._ray_windings(points, caps, skip_outside=False)
+    assert not unsure[outside].any() and (w[outside] == 0.0).all()
+    sure = ~unsure0
+    assert sure.mean() > 0.99
+    np.testing.assert_array_equal(w[sure], w0[sure])
+    np.testing.assert_array_equal(unsure[~outside], unsure0[~outside])
+    np.testing.assert_array_equal(bound, bound0)
+    exact = np.abs(index.winding_numbers(points, np.inf, want_err=False)[0]) > 0.5
+    np.testing.assert_array_equal(s.compute_occupancy(points) > 0.5, exact)

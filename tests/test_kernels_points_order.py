@@ -46,6 +46,43 @@ def test_sort_by_cell_is_a_stable_permutation_in_morton_order(points, bits):
     assert np.all(np.diff(order)[same] > 0)  # stable: equal cells keep the caller's order
 
 
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, st.tuples(st.integers(1, 300), st.just(3)),
+              elements=st.floats(-1e3, 1e3, allow_nan=False)), st.integers(1, 5),
+       arrays(np.float64, (2, 3), elements=st.floats(-1.2e3, 1.2e3, allow_nan=False)))
+def test_sort_by_cell_in_a_box_places_the_points_inside_it_in_morton_order(points, bits, corners):
+    """With a box, exactly the points inside it (faces included) are placed, in Morton order of a grid over
+    their own box within it, stably; the count placed is returned."""
+    box = corners.min(axis=0), corners.max(axis=0)
+    out, order = np.empty_like(points), np.empty(len(points), np.int64)
+    placed = sort_by_cell(points, bits, out, order, box)
+    inside = np.flatnonzero(np.all((points >= box[0]) & (points <= box[1]), axis=1))
+    assert placed == len(inside)
+    out, order = out[:placed], order[:placed]
+    assert np.array_equal(np.sort(order), inside)
+    np.testing.assert_array_equal(out, points[order])
+    if placed:
+        lo = np.maximum(points.min(axis=0), box[0])
+        hi = np.minimum(points.max(axis=0), box[1])
+        scale = np.divide(1 << bits, hi - lo, out=np.zeros(3), where=hi > lo)
+        cells = np.clip(((out - lo) * scale).astype(np.int64), 0, (1 << bits) - 1)
+        key = morton(cells, bits)
+        assert np.all(np.diff(key) >= 0)
+        assert np.all(np.diff(order)[np.diff(key) == 0] > 0)
+
+
+@pytest.mark.parametrize("n", [SORT_MIN_POINTS - 1, 3 * SORT_MIN_POINTS])
+def test_cell_order_in_a_box_and_restore_order_fill_the_rest_with_zeros(n):
+    pts = np.random.default_rng(n).uniform(-1.0, 1.0, (n, 3))
+    box = np.full(3, -0.5), np.full(3, 0.5)
+    kept, perm = cell_order(pts, box)
+    inside = np.all(np.abs(pts) <= 0.5, axis=1)
+    assert np.array_equal(np.sort(perm), np.flatnonzero(inside))
+    np.testing.assert_array_equal(kept, pts[perm])
+    back = restore_order(perm, np.ones(len(kept)), n=n)[0]
+    np.testing.assert_array_equal(back, inside.astype(float))
+
+
 def test_sort_by_cell_of_coincident_and_flat_points():
     same = np.ones((10, 3))
     out, order = sorted_by_cell(same, 3)

@@ -352,3 +352,25 @@ def test_pack_writes_what_numpy_copies_write(split_width, moment):
     else:
         assert np.all(inputs[rest, 9] == -9.0) and np.all(part == -9.0)
     assert np.all(inputs[:start] == -9.0) and np.all(inputs[start + n:] == -9.0)
+
+
+@pytest.mark.parametrize("name,r", [("mitsuba_gaussian", 0.5), ("box", 1.0)])
+def test_a_nan_sample_counts_only_where_its_weight_is_not_zero(name, r):
+    """The gathers add zero weights too when every value is finite (film._finite); one NaN value puts them back
+    on the `w != 0` test: the NaN reaches exactly the pixels where its sample weighs, the others keep their sums."""
+    width, height, tile = 9, 9, (0, 0, 9, 9)
+    o = opts(samples=4, filter=name, filter_radius=r)
+    radius, code = film.support_radius(o), film._FILTER_CODES[name]
+    points = film.tile_points(o, width, height, range(height), range(width), range(4))
+    values = np.random.default_rng(2).random((len(points), 3))
+    bad = 4 * (4 * width + 4)  # the first sample of the centre pixel
+    values[bad] = np.nan
+    acc, wsum = np.zeros((width * height, 3)), np.zeros(width * height)
+    f = film._gather_separable if code >= film.MITCHELL else film._gather_each
+    f(points, values, 4, tile, tile, width, height, code, float(r), film.cubic(o), radius, acc, wsum)
+    centres = np.array([[c + 0.5, height - row - 0.5] for row in range(height) for c in range(width)])
+    weighs = film.filter_weight(o, points[bad, 0] - centres[:, 0], points[bad, 1] - centres[:, 1]) != 0
+    near = (np.abs(np.arange(width * height) // width - 4) <= radius) & (np.abs(np.arange(width * height) % width
+                                                                               - 4) <= radius)
+    assert (near & ~weighs).any()  # some pixels in reach where the sample weighs nothing
+    np.testing.assert_array_equal(np.isnan(acc[:, 0]), weighs & near)

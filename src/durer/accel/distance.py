@@ -60,6 +60,7 @@ CAP_MAX_SHARE = 0.5  # a mesh whose cap would have more triangles than this shar
 # with no limit, 0.92x at 2.5; bunny 1M points (spread ~3 leaves) 1.22x with no limit, 1.00x at 2.5
 PACKET_LEAF_SPREAD = 2.5
 CAP_BOUND_LEVELS = 1  # inside: the caps' |w| bounded again from the lanes this many levels below the roots
+BOX_MARGIN = 1e-6  # inside: points outside the scene's box grown by this times its size count 0 crossings
 SORT_MIN_POINTS = 4096  # fewer points are queried in the caller's order: sorting them would not pay
 
 
@@ -73,25 +74,31 @@ def similarity_scale(matrix: np.ndarray) -> float | None:
     return float(np.sqrt(s2))
 
 
-def cell_order(points: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+def cell_order(points: np.ndarray, box: tuple[np.ndarray, np.ndarray] | None = None
+               ) -> tuple[np.ndarray, np.ndarray | None]:
     """(the points in Morton order of a grid over them, the permutation: sorted[j] = points[order[j]]), or (the
     points, None) for small batches. Queries walk the tree for neighbouring points one after another, which
-    shares the cache (kernels/points/order.py); `restore_order` puts the answers back."""
+    shares the cache (kernels/points/order.py); `restore_order` puts the answers back. With `box` (lo, hi) only
+    the points inside it are kept (and always an order, as `restore_order(..., n=N)` needs)."""
     n = len(points)
     if n < SORT_MIN_POINTS:
-        return points, None
+        if box is None:
+            return points, None
+        keep = np.flatnonzero(np.all((points >= box[0]) & (points <= box[1]), axis=1))
+        return points[keep], keep
     sorted_points, order = np.empty_like(points), np.empty(n, np.int64)
-    sort_by_cell(points, grid_bits(n), sorted_points, order)
-    return sorted_points, order
+    placed = sort_by_cell(points, grid_bits(n), sorted_points, order, box)
+    return sorted_points[:placed], order[:placed]
 
 
-def restore_order(order: np.ndarray | None, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The answers for sorted points (cell_order) in the caller's order of the points."""
+def restore_order(order: np.ndarray | None, *arrays: np.ndarray, n: int | None = None) -> tuple[np.ndarray, ...]:
+    """The answers for sorted points (cell_order) in the caller's order of the points; with n (a cell_order of
+    the points inside a box: N points, the answers of the kept ones), zeros for the points left out."""
     if order is None:
         return arrays
     out = []
     for a in arrays:
-        b = np.empty_like(a)
+        b = np.empty_like(a) if n is None else np.zeros((n, *a.shape[1:]), a.dtype)
         b[order] = a
         out.append(b)
     return tuple(out)
@@ -308,17 +315,29 @@ class DistanceIndex:
                        for a in range(3)], axis=0)
         return PACKET_LEAF_SPREAD * float(np.median(side))
 
-    def _ray_windings(self, points: np.ndarray, caps: DistanceIndex | None,
-                      spread: float | None = None) -> tuple[np.ndarray, ...]:
+    def scene_box(self, caps: DistanceIndex | None) -> tuple[np.ndarray, np.ndarray]:
+        """The box around every instance and every cap, grown by BOX_MARGIN of its size (far beyond float32 leaf
+        vertices and the matrices' rounding): the closed surfaces' winding number is 0 outside it."""
+        lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
+        if caps is not None:
+            lo = np.minimum(lo, caps.tree._inst_lo.min(axis=0, initial=np.inf))
+            hi = np.maximum(hi, caps.tree._inst_hi.max(axis=0, initial=-np.inf))
+        margin = BOX_MARGIN * (float(np.abs(hi - lo).max()) + float(np.abs([lo, hi]).max()))
+        return lo - margin, hi + margin
+
+    def _ray_windings(self, points: np.ndarray, caps: DistanceIndex | None, spread: float | None = None,
+                      skip_outside: bool = True) -> tuple[np.ndarray, ...]:
         """(signed crossings of each point's ray over the meshes and the caps, unsure, bound on the caps' |w|)
         (kernels/points/crossing_packets.ray_windings), in the given order; the ray leaves along RAY_TILT plus the
         unit direction from the scene's middle to the point; packets of them where their origins spread at most
-        `spread` (default packet_spread(): 0 walks every ray alone, inf every coherent packet as one)."""
+        `spread` (default packet_spread(): 0 walks every ray alone, inf every coherent packet as one); points outside
+        the scene's box grown by BOX_MARGIN count 0, unwalked, unless skip_outside is False."""
         p = self.tree.packed
         n = len(points)
         w, unsure, bound = np.empty(n), np.zeros(n, np.bool_), np.zeros(n)
         lo, hi = self.tree._inst_lo.min(axis=0), self.tree._inst_hi.max(axis=0)
         t_eps = 1e-9 * max(float(np.linalg.norm(hi - lo)), 1e-300)
+        box_lo, box_hi = self.scene_box(caps) if skip_outside else (lo - np.inf, hi + np.inf)
         if caps is None:  # the meshes' own arrays with no rows: the same types, so one compiled kernel
             cap_args = (p.top.inst_root[:0], p.w2o[:0], self.sign[:0], self.inst_sphere[:0],
                         *(a[:0] for a in p.blas), p.stack)
@@ -331,8 +350,9 @@ class DistanceIndex:
             if getattr(self, "_packet_spread", None) is None:  # indexes pickled before the field existed lack it
                 self._packet_spread = self.packet_spread()
             spread = self._packet_spread
-        run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, t_eps, float(spread), p.top.inst_root,
-                   p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, w, unsure, bound)
+        run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, box_lo, box_hi, t_eps, float(spread),
+                   p.top.inst_root, p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, w, unsure,
+                   bound)
         return w, unsure, bound
 
     def inside(self, points: np.ndarray, beta: float) -> np.ndarray:
@@ -345,10 +365,13 @@ class DistanceIndex:
         caps = None if self.closed else self.caps
         if not self.closed and caps is None:
             return np.abs(self.winding_numbers(points, beta, want_err=False)[0]) > 0.5
-        ordered, perm = cell_order(points)
+        if self.closed:  # outside the scene's box the winding number is 0: those points are neither sorted nor walked
+            ordered, perm = cell_order(points, self.scene_box(None))
+        else:
+            ordered, perm = cell_order(points)
         n = len(ordered)
         if not n:
-            return np.zeros(0, np.bool_)
+            return np.zeros(len(points), np.bool_)
         w, unsure, bound = self._ray_windings(ordered, caps)
         if caps is not None:
             # far from the caps |w_cap| < 1/2, so an integer count k decides alone: |k - w_cap| > 1/2 iff k != 0
@@ -363,7 +386,7 @@ class DistanceIndex:
             unsure[near] |= np.abs(np.abs(w[near]) - 0.5) <= CAP_MARGIN
         if unsure.any():
             w[unsure] = self._windings(ordered[unsure], beta, DEFAULT_ORDER, False)[0]
-        return restore_order(perm, np.abs(w) > 0.5)[0]
+        return restore_order(perm, np.abs(w) > 0.5, n=len(points))[0]
 
     @staticmethod
     def _cap_windings(caps: DistanceIndex, points: np.ndarray, crossings: np.ndarray) -> np.ndarray:

@@ -28,8 +28,8 @@ Assignment 7 of the course, for any sample count n:
   options.filter_b and filter_c, Mitsuba's B and C, default 1/3 each, over radius r: Mitsuba's has r = 2),
   `catmullrom` (Mitsuba's: the same cubic with B = 0, C = 1/2, whatever filter_b and filter_c), `lanczos`
   (sinc(x) sinc(x / r), r lobes: Mitsuba's 3) and `mitsuba_gaussian` (exp(-x^2 / 2 sigma^2) less its value at
-  4 sigma, zero beyond: Mitsuba's gaussian). Their negative lobes (mitchell, catmullrom, lanczos) are kept, as
-  Mitsuba keeps them.
+  4 sigma, zero beyond: Mitsuba's gaussian, read from a fine table as Mitsuba's film reads a coarse one,
+  filters.gauss). Their negative lobes (mitchell, catmullrom, lanczos) are kept, as Mitsuba keeps them.
   `reconstruct` filters every sample of an image at once; `gather` does the same for one tile from the samples of
   the tile and its halo (the render's units, units.py), in the same order, so both give the same bits.
 """
@@ -43,15 +43,27 @@ import numpy as np
 
 from ..kernels.path.qmc import film_samples
 from ..options import RenderOptions
+from .filters import (  # noqa: F401  (the filters' names, as film.py has always given them)
+    _FILTER_CODES,
+    BOX,
+    CATMULL_ROM,
+    GAUSS_STEPS,
+    GAUSSIAN,
+    LANCZOS,
+    MITCHELL,
+    MITSUBA_GAUSSIAN,
+    TENT,
+    _weight,
+    _weight1,
+    cubic,
+    filter_weight,
+    gauss,
+    support_radius,
+)
 from .integrators import integrator_for
 from .sampling import PIXEL_KEY, key, seed_key, sobol_pair
 
 LENS_KEY = PIXEL_KEY - 1  # the sample index of a pixel's aperture stream (lens_samples), never a real one
-
-BOX, TENT, GAUSSIAN, MITCHELL, LANCZOS, MITSUBA_GAUSSIAN = range(6)
-_FILTER_CODES = {"box": BOX, "tent": TENT, "gaussian": GAUSSIAN, "mitchell": MITCHELL, "catmullrom": MITCHELL,
-                 "lanczos": LANCZOS, "mitsuba_gaussian": MITSUBA_GAUSSIAN}
-CATMULL_ROM = (0.0, 0.5)  # Mitsuba's catmullrom: the cubic's (B, C)
 
 
 # --- sampling ----------------------------------------------------------------------------------------------------
@@ -234,75 +246,6 @@ def nearest_samples(points, t, normal, per_pixel, halo, tile, height, depth, nrm
 
 
 # --- filtering ---------------------------------------------------------------------------------------------------
-@nb.njit(cache=True, inline="always")
-def _weight1(kind: int, r: float, bc: tuple[float, float], x: float) -> float:
-    """One axis of Mitsuba's separable filters (module docstring); bc the cubic's (B, C)."""
-    x = abs(x)
-    if kind == MITCHELL:
-        b, c = bc
-        x = 2.0 * x / r
-        if x >= 2.0:
-            return 0.0
-        x2 = x * x
-        if x < 1.0:
-            return ((12 - 9 * b - 6 * c) * x2 * x + (-18 + 12 * b + 6 * c) * x2 + (6 - 2 * b)) / 6.0
-        return ((-b - 6 * c) * x2 * x + (6 * b + 30 * c) * x2 + (-12 * b - 48 * c) * x + (8 * b + 24 * c)) / 6.0
-    if kind == LANCZOS:
-        if x >= r:
-            return 0.0
-        if x < 1e-8:
-            return 1.0
-        a = math.pi * x
-        return r * math.sin(a) * math.sin(a / r) / (a * a)
-    a = -1.0 / (2.0 * r * r)  # MITSUBA_GAUSSIAN
-    return max(0.0, math.exp(a * x * x) - math.exp(a * 16.0 * r * r))
-
-
-@nb.njit(cache=True, inline="always")
-def _weight(kind: int, r: float, bc: tuple[float, float], dx: float, dy: float) -> float:
-    if kind >= MITCHELL:
-        return _weight1(kind, r, bc, dx) * _weight1(kind, r, bc, dy)
-    if kind == BOX:  # edges inclusive, up to float rounding (the course's k/zoom - 4.5 lands on r = 1.7 in float)
-        edge = r * (1.0 + 1e-6)
-        return 1.0 if abs(dx) <= edge and abs(dy) <= edge else 0.0
-    d2 = dx * dx + dy * dy
-    if kind == TENT:
-        return max(0.0, 1.0 - math.sqrt(d2) / r)
-    return math.exp(-d2 / (2.0 * r * r))
-
-
-@nb.njit(cache=True)
-def _weights_at(kind: int, r: float, bc: tuple[float, float], dx: np.ndarray, dy: np.ndarray,
-                out: np.ndarray) -> None:
-    # serial: a few ns a sample, and called while the path tracer's wavefronts run on the other threads, where a
-    # parallel region's OpenMP threads went on spinning after it and took 20% of the cores from the wavefronts
-    for i in range(dx.shape[0]):
-        out[i] = _weight(kind, r, bc, dx[i], dy[i])
-
-
-def cubic(options: RenderOptions) -> tuple[float, float]:
-    """(B, C) of the Mitchell-Netravali cubic the filter uses (catmullrom's own pair; unused by other filters)."""
-    if options.filter == "catmullrom":
-        return CATMULL_ROM
-    return float(options.filter_b), float(options.filter_c)
-
-
-def filter_weight(options: RenderOptions, dx, dy) -> np.ndarray:
-    """The filter's weight at offsets (dx, dy) in pixels from a pixel centre (arrays broadcast together)."""
-    dx, dy = np.broadcast_arrays(np.asarray(dx, dtype=np.float64), np.asarray(dy, dtype=np.float64))
-    out = np.empty(dx.size)
-    _weights_at(_FILTER_CODES[options.filter], float(options.filter_radius), cubic(options),
-                np.ascontiguousarray(dx).ravel(), np.ascontiguousarray(dy).ravel(), out)
-    return out.reshape(dx.shape)
-
-
-def support_radius(options: RenderOptions) -> int:
-    """Integer radius in pixels of the neighbourhood whose samples can weigh on a pixel: the filter is zero beyond
-    `extent` from the centre (options.filter_reach), and a neighbour k pixels away has
-    samples from k - 0.5 pixels on, so k <= ceil(extent - 0.5)."""
-    return max(0, math.ceil(options.filter_reach() - 0.5 - 1e-9))
-
-
 @nb.njit(cache=True, parallel=True)
 def _reconstruct(points, start, order, values, width, height, kind, r, bc, radius, out):
     """out[p] = sum w(s - centre(p)) * value(s) / sum w over samples s of the pixels within `radius` of p."""
@@ -364,12 +307,25 @@ def _gather(points, values, per_pixel, halo, tile, width, height, kind, r, bc, r
         _gather_each(points, values, per_pixel, halo, tile, width, height, kind, r, bc, radius, acc, wsum)
 
 
+@nb.njit(cache=True, inline="always")
+def _finite(values) -> bool:
+    """Are all sample values finite? Then _gather_each and _gather_separable add every weight, zeros included
+    (w * v adds +-0, the same bits): their `w != 0` test, a coin toss for the samples at a filter's edge (a fifth
+    of the radius-2 gaussian's (sample, pixel) pairs), cost more than the sums (the separable sums 2.3x faster);
+    a NaN or inf sample still counts only where its weight is not zero."""
+    for v in values.flat:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
 @nb.njit(cache=True)
 def _gather_each(points, values, per_pixel, halo, tile, width, height, kind, r, bc, radius, acc, wsum):
     """_gather with the filter evaluated per (tile pixel, sample): any filter."""
     channels = values.shape[1]
     hr, hc, _, hw = halo
     tr, tc, th, tw = tile
+    dense = _finite(values)
     for i in range(th):
         row = tr + i
         cy = height - row - 0.5
@@ -384,7 +340,7 @@ def _gather_each(points, values, per_pixel, halo, tile, width, height, kind, r, 
                     q = (rr - hr) * hw + (cc - hc)
                     for s in range(q * per_pixel, (q + 1) * per_pixel):
                         w = _weight(kind, r, bc, points[s, 0] - cx, points[s, 1] - cy)
-                        if w != 0.0:
+                        if dense or w != 0.0:
                             total += w
                             if channels == 3:
                                 a0 += w * values[s, 0]
@@ -410,8 +366,7 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
     span = 2 * radius + 1
     n = points.shape[0]
     wx, wy = np.empty((n, span)), np.empty((n, span))
-    a = -1.0 / (2.0 * r * r)  # the Gaussian's: _weight1's operands, its constant exp taken once (the same bits)
-    cut = math.exp(a * 16.0 * r * r)
+    scale = GAUSS_STEPS / (4.0 * r)  # the Gaussian's: _weight1's operands (the same bits)
     for q in range(hh * hw):
         rr, cc = hr + q // hw, hc + q % hw
         for s in range(q * per_pixel, (q + 1) * per_pixel):
@@ -422,11 +377,12 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
                 cy = height - row - 0.5
                 if kind == MITSUBA_GAUSSIAN:
                     x, y = abs(points[s, 0] - cx), abs(points[s, 1] - cy)
-                    wx[s, k] = max(0.0, math.exp(a * x * x) - cut)
-                    wy[s, k] = max(0.0, math.exp(a * y * y) - cut)
+                    wx[s, k] = gauss(x * scale)
+                    wy[s, k] = gauss(y * scale)
                 else:
                     wx[s, k] = _weight1(kind, r, bc, points[s, 0] - cx)
                     wy[s, k] = _weight1(kind, r, bc, points[s, 1] - cy)
+    dense = _finite(values)
     for i in range(th):
         row = tr + i
         for j in range(tw):
@@ -442,7 +398,7 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
                     kx, ky = col - cc + radius, row - rr + radius
                     for s in range(q * per_pixel, (q + 1) * per_pixel):
                         w = wx[s, kx] * wy[s, ky]
-                        if w != 0.0:
+                        if dense or w != 0.0:
                             total += w
                             if channels == 3:
                                 a0 += w * values[s, 0]

@@ -148,6 +148,19 @@ def _roughconductor_eval(P, s, wi, wo):
 
 
 @nb.njit(**JIT)
+def _roughconductor_pdf(P, s, wi, wo):
+    """_roughconductor_eval's pdf alone, from the same operations (the same bits): its sampling needs no more, and
+    the three Fresnel terms and G1(wo) it would discard were a quarter of a sample (130 against 172 ns)."""
+    ok = wi[2] > 0 and wo[2] > 0
+    au, av, beck = P[s, AU], P[s, AV], P[s, BECKMANN] != 0
+    hx, hy, hz = wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]
+    ln = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-300)
+    hx, hy, hz = hx / ln, hy / ln, hz / ln
+    g1i = g11(wi[0], wi[1], wi[2], hx, hy, hz, au, av, beck)
+    return d1(hx, hy, hz, au, av, beck) * g1i / (4.0 * max(wi[2], 1e-300)) if ok else 0.0
+
+
+@nb.njit(**JIT)
 def _roughdielectric_eval(P, s, wi, wo):
     """Walter et al.'s rough glass as Mitsuba's roughdielectric: reflection F D G / (4 |cos_i|), refraction
     (1 - F) |D G eta^2 (wi.m)(wo.m) / (cos_i (wi.m + eta wo.m)^2)| / eta^2 (radiance), from either side; the pdf of
@@ -300,7 +313,7 @@ def _roughconductor_sample(P, s, wi, u20, u21):
     ok = 1.0 if wz > 0 and wo[2] > 0 else 0.0
     g = g11(wo[0], wo[1], wo[2], mx, my, mz, au, av, beck) * ok
     cm = wx * mx + wy * my + wz * mz
-    pdf = _roughconductor_eval(P, s, wi, wo)[3]
+    pdf = _roughconductor_pdf(P, s, wi, wo)
     return (wo, (P[s, C1] * fresnel_conductor1(cm, P[s, C3], P[s, C4]) * g,
                  P[s, C1 + 1] * fresnel_conductor1(cm, P[s, C3 + 1], P[s, C4 + 1]) * g,
                  P[s, C1 + 2] * fresnel_conductor1(cm, P[s, C3 + 2], P[s, C4 + 2]) * g), pdf, False, 1.0)

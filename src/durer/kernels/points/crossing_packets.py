@@ -130,11 +130,12 @@ def packet_crossings(bounds, child, root, leaf_prim, leaf_tri, nrx, nry, nrz, kx
 
 @nb.njit(**JIT, inline="always")
 def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim, leaf_tri, i0, points, rx, ry, rz,
-                    packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad):
+                    packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad, gone):
     """Mesh instance k's signed crossings, times its sign, added into w for the chunk's PACKET points from i0: as
     a packet when the chunk and its rays moved into object space are coherent, else ray by ray. moved is the
     packet ro's state (coherent, nrx, nry, nrz, kx, ky, kz, the (3, 4) matrix it was moved by): a matrix equal to
-    it (a cap placed as its mesh) reuses ro. Returns the state."""
+    it (a cap placed as its mesh) reuses ro. Rays with gone[r] (leaving the scene's box) are not walked. Returns
+    the state."""
     m = inst_w2o[k]
     if not _same_matrix(m, moved[7]):
         c, nrx, nry, nrz, kx, ky, kz = object_packet(rr, ro, m)  # rr is scratch when not packet
@@ -145,7 +146,7 @@ def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim,
         for r in range(PACKET):
             dx, dy, dz = ro[_DX + r], ro[_DY + r], ro[_DZ + r]
             ro[_TMIN + r] = -t_eps / np.sqrt(dx * dx + dy * dy + dz * dz)
-            ro[_BEST + r] = -np.inf if bad[r] else np.inf
+            ro[_BEST + r] = -np.inf if bad[r] or gone[r] else np.inf
             tlo = min(tlo, ro[_TMIN + r])
             signed[r] = 0.0
         ro[_EXT + _EXT_TMIN] = tlo
@@ -155,7 +156,7 @@ def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim,
             w[r] += inst_sign[k] * signed[r]
         return moved
     for r in range(rx.shape[0]):
-        if bad[r]:
+        if bad[r] or gone[r]:
             continue
         i = i0 + r
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
@@ -170,6 +171,12 @@ def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim,
 
 
 @nb.njit(**JIT, inline="always")
+def outside_box(px, py, pz, lo, hi):
+    """Whether the point lies outside the box lo..hi."""
+    return px < lo[0] or px > hi[0] or py < lo[1] or py > hi[1] or pz < lo[2] or pz > hi[2]
+
+
+@nb.njit(**JIT, inline="always")
 def _same_matrix(a, b):
     """Whether two (3, 4) matrices are equal entry by entry."""
     same = True
@@ -180,9 +187,9 @@ def _same_matrix(a, b):
 
 
 @nb.njit(**JIT)
-def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, inst_sign, inst_sphere, bounds, child,
-                 leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps, cap_lanes, w_out, unsure,
-                 bound, blk0, blk1):
+def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_root, inst_w2o, inst_sign, inst_sphere,
+                 bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps, cap_lanes,
+                 w_out, unsure, bound, blk0, blk1):
     """w_out[i] = the winding number of point i (blocks blk0..blk1) over all instances: for a mesh instance the
     signed count of one ray's crossings (along tilt + the unit direction from `center` to the point, moved into
     the instance's object space, times the instance's inst_sign), for a sphere instance 1 inside, 1/2 on the
@@ -191,7 +198,11 @@ def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, i
     order (inst_root .. sph_w2o, then its stack size; no instances: none), is crossed by the same ray and its
     count added (accel/caps.py), and bound[i] = winding.lane_bound's bound on its winding number from cap_lanes.
     Every mesh instance of the two together must be closed and consistently oriented (the caller checks). Points
-    go PACKET at a time (module docstring); max_spread is the origins' largest spread a packet may have."""
+    go PACKET at a time (module docstring); max_spread is the origins' largest spread a packet may have. Points
+    outside the box box_lo..box_hi (around every instance of both trees, grown by more than any rounding) are not
+    walked: the winding number of closed, consistently oriented surfaces is 0 outside their convex hull, so their
+    count is 0 and sure whatever their ray would meet (a query box grown 10% around a mesh: ~40% of the points;
+    a chunk of only such points skips its setup too)."""
     n = points.shape[0]
     c_root, c_w2o, c_sign, _, c_bounds, c_child, c_prim, c_tri, _, _, _, c_stack = caps
     stack = np.empty(max(stack_size, c_stack, 1) * 4, np.int32)
@@ -199,7 +210,7 @@ def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, i
     key, order = np.empty(4), np.empty(4, np.int64)
     o16, d16 = np.empty((PACKET, 3)), np.empty((PACKET, 3))
     t0, t1, idx = np.zeros(PACKET), np.full(PACKET, np.inf), np.arange(PACKET)
-    signed, w, bad = np.empty(PACKET), np.empty(PACKET), np.empty(PACKET, np.bool_)
+    signed, w, bad, gone = np.empty(PACKET), np.empty(PACKET), np.empty(PACKET, np.bool_), np.empty(PACKET, np.bool_)
     nan_matrix = np.full((3, 4), np.nan)  # equal to no matrix
     for i0 in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK), PACKET):
         m = min(n, i0 + PACKET) - i0
@@ -211,6 +222,17 @@ def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, i
             d16[r, 0], d16[r, 1], d16[r, 2] = tilt[0] + ax, tilt[1] + ay, tilt[2] + az
             w[r] = 0.0
             bad[r] = False
+        outside = True
+        for r in range(m):
+            gone[r] = outside_box(o16[r, 0], o16[r, 1], o16[r, 2], box_lo, box_hi)
+            outside &= gone[r]
+        if outside:
+            for r in range(m):
+                if c_root.shape[0] > 0:
+                    bound[i0 + r] = lane_bound(cap_lanes, o16[r, 0], o16[r, 1], o16[r, 2])
+                w_out[i0 + r] = 0.0
+                unsure[i0 + r] = False
+            continue
         packet = m == PACKET and packet_setup(o16, d16, t0, t1, idx, PACKET, rr, max_spread)[0]
         moved = (False, 0, 0, 0, 0, 0, 0, nan_matrix)  # ro moved by no matrix yet
         for k in range(inst_root.shape[0]):
@@ -222,10 +244,10 @@ def ray_windings(points, tilt, center, t_eps, max_spread, inst_root, inst_w2o, i
                                            sph_radius[s])
                 continue
             moved = _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim, leaf_tri, i0, points,
-                                    rx, ry, rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad)
+                                    rx, ry, rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad, gone)
         for k in range(c_root.shape[0]):  # the caps (meshes only), as above
             moved = _mesh_crossings(k, c_w2o, c_root, c_sign, c_bounds, c_child, c_prim, c_tri, i0, points, rx, ry,
-                                    rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad)
+                                    rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad, gone)
         for r in range(m):
             i = i0 + r
             if not bad[r] and c_root.shape[0] > 0:
