@@ -22,7 +22,7 @@ from single_ray import cpu_ns_per_ray, incoherent_case
 
 from durer.accel.bvh import build_tree
 from durer.kernels.bvh.layout import NODE_FLOATS, leaf_range
-from durer.kernels.bvh.single import blas_closest, node_dists4, push_nearest_first, ray_setup
+from durer.kernels.bvh.single import blas_closest, child_codes, node_dists4, push_nearest_first, ray_setup
 from durer.kernels.intersect import watertight_triangle
 
 
@@ -33,6 +33,7 @@ def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts, ent
     visit summed, pops, pops dropped, triangle tests, leaves); entered[k] counts the visits that entered k boxes."""
     stack_node = np.empty(stack_size, np.int32)
     stack_t = np.empty(stack_size)
+    u1 = np.uint64(1)
     nv = 0
     ns = 0
     for i in range(o.shape[0]):
@@ -41,7 +42,7 @@ def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts, ent
         counts[i, 0] = nv
         counts[i, 1] = ns
         best = np.inf
-        sp = 0
+        sp = np.uint64(0)  # the ordered stack of push_nearest_first: entry k at index k + 1
         node = 0
         while True:
             if node >= 0:
@@ -52,7 +53,8 @@ def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts, ent
                 hit = (d0 < np.inf) + (d1 < np.inf) + (d2 < np.inf) + (d3 < np.inf)
                 counts[i, 3] += hit
                 entered[hit] += 1
-                nxt, sp = push_nearest_first(d0, d1, d2, d3, child, node, stack_node, stack_t, sp)
+                c0, c1, c2, c3 = child_codes(child, node)
+                nxt, sp = push_nearest_first(d0, d1, d2, d3, c0, c1, c2, c3, stack_node, stack_t, sp)
                 if nxt != 0:
                     node = nxt
                     continue
@@ -68,11 +70,12 @@ def record(bounds, child, leaf_tri, o, d, stack_size, visits, slots, counts, ent
                         best = t
             node = 0
             while sp > 0:
-                sp -= 1
                 counts[i, 4] += 1
                 if stack_t[sp] <= best:
                     node = stack_node[sp]
+                    sp -= u1
                     break
+                sp -= u1
                 counts[i, 5] += 1
             if node == 0:
                 break
@@ -136,6 +139,21 @@ def cpu_ns(fn, n: int, repeat: int) -> float:
     return cpu_ns_per_ray(fn, n, repeat)[0]
 
 
+def lines_report(bounds: np.ndarray, leaf_tri: np.ndarray, visits: np.ndarray, slots: np.ndarray, n: int) -> str:
+    """Cache lines the recorded visits read, per ray: each visited node's boxes (NODE_FLOATS float32, two or three
+    lines by the array's alignment) and its row of child codes, and each tested triangle (9 floats of leaf_tri);
+    beside them the figure for 128-byte nodes (boxes and codes in one aligned block: two lines a visit)."""
+    def spans(base: int, start: np.ndarray, size: int) -> np.ndarray:
+        first = (base + start) // 64
+        return (base + start + size - 1) // 64 - first + 1
+
+    box = spans(bounds.ctypes.data, visits.astype(np.int64) * NODE_FLOATS * 4, NODE_FLOATS * 4).sum()
+    tri = spans(leaf_tri.ctypes.data, slots.astype(np.int64) * 9 * leaf_tri.itemsize, 9 * leaf_tri.itemsize).sum()
+    return (f"cache lines read per ray: node boxes {box / n:.1f} (bounds at {bounds.ctypes.data % 64} mod 64), "
+            f"child rows {len(visits) / n:.1f}, triangles {tri / n:.1f} ({leaf_tri.dtype}); "
+            f"with 128-byte nodes the nodes would read {2 * len(visits) / n:.1f}")
+
+
 def main() -> None:
     args, mesh, o, d = incoherent_case(__doc__.split("\n")[0])
     tree = build_tree(np.asarray(mesh.triangles), np.zeros((0, 3)), np.zeros((0, 3)))
@@ -154,6 +172,7 @@ def main() -> None:
     share = ", ".join(f"{k}: {v / entered.sum():.0%}" for k, v in enumerate(entered))
     print(f"node visits entering k child boxes: {share}; node visits per ray, median "
           f"{np.median(counts[:, 2]):.0f}, 99th percentile {np.percentile(counts[:, 2], 99):.0f}")
+    print(lines_report(bounds, leaf_tri, visits[:nv], slots[:ns], n))
     figures = {
         "kernel": cpu_ns(lambda: kernel(bounds, child, tree.leaf_prim, leaf_tri, o, d, tree.stack_size), n,
                          args.repeat),

@@ -31,6 +31,7 @@ from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.threads import run_blocks
 from .compile import CompiledScene
 from .hits import Hits, ray_arrays
+from .pages import tree_on_huge_pages
 from .widths import checked_width
 
 INVALID_ID = -1
@@ -45,6 +46,11 @@ class WideBVH:
     leaf_prim: np.ndarray  # (M,) int32: triangle id, or -(sphere + 1)
     leaf_tri: np.ndarray   # (M, 9) triangle vertices in leaf order: float32 if large and exact (narrow_leaves)
     depth: int
+
+    def __post_init__(self) -> None:
+        # the layout step after every build: a large tree's walk reads from 2 MiB pages (accel/pages.py)
+        self.bounds, self.child, self.leaf_prim, self.leaf_tri = tree_on_huge_pages(
+            (self.bounds, self.child, self.leaf_prim, self.leaf_tri))
 
     @property
     def nbytes(self) -> int:
