@@ -120,7 +120,7 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
         L[j, 2] += t2 * le2 * w
         if seek:
             _seen(aux[3], j, 3, t0 * le0 * w, t1 * le1 * w, t2 * le2 * w)
-    found = False
+    found = False  # the features were taken at this hit: a map's normal replaces theirs below
     if seek:
         cont = _features_at(P, hit, s, hx, hy, hz, dx, dy, dz, j, aux)
         found = not cont and hit and s >= 0
@@ -197,8 +197,9 @@ def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
     """The denoiser's features of path j at this hit: on an emitter seen from its emitting side, its radiance's
     colour (scaled to a maximum of 1: the denoiser then sees the light's edge, which a light with the ceiling's BSDF
     would not show); on a surface with a non-delta lobe, bsdf_albedo; either times the tint so far, with the
-    geometric normal, written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does where the path
-    escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass), whose sampled lobe
+    shading normal (shade_bounce then puts a normal or bump map's perturbed normal in its place: OIDN keeps the
+    map's detail only if it sees it), written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does
+    where the path escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass), whose sampled lobe
     multiplies the tint in shade_path."""
     tint, albedo, normal, _ = aux
     if hit and s >= 0:
