@@ -199,8 +199,8 @@ def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
     would not show); on a surface with a non-delta lobe, bsdf_albedo; either times the tint so far, with the
     shading normal (shade_bounce then puts a normal or bump map's perturbed normal in its place: OIDN keeps the
     map's detail only if it sees it), written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does
-    where the path escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass), whose sampled lobe
-    multiplies the tint in shade_path."""
+    where the path escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass),
+    whose sampled lobe multiplies the tint in shade_path."""
     tint, albedo, normal, _ = aux
     if hit and s >= 0:
         sgn = -1.0 if P[s, FLIP] != 0 else 1.0
