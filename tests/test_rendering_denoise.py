@@ -60,6 +60,27 @@ def test_albedo_seen_through_a_mirror_is_tinted_by_it(kw):
     np.testing.assert_allclose(r.normals, np.broadcast_to((0, 0, 1), r.albedo.shape), atol=1e-6)
 
 
+def test_a_normal_maps_perturbed_normal_is_the_normal_feature(tmp_path):
+    """Under Mitsuba's normalmap the shading normal feature is the map's normal (2 rgb - 1 in the frame of dp/du,
+    dp/dv and n), which OIDN needs to keep the map's detail, while RenderResult.normals stays the surface's."""
+    from PIL import Image
+
+    rgb = np.array([191, 128, 238], np.uint8)
+    Image.fromarray(np.broadcast_to(rgb, (4, 4, 3)).copy()).save(tmp_path / "n.png")
+    (tmp_path / "s.xml").write_text(
+        '<scene version="3.0.0"><integrator type="path"/>'
+        '<sensor type="perspective"><float name="fov" value="20"/><transform name="to_world">'
+        '<lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>'
+        '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>'
+        '<emitter type="constant"/><shape type="rectangle"><bsdf type="normalmap">'
+        '<texture name="normalmap" type="bitmap"><boolean name="raw" value="true"/>'
+        '<string name="filename" value="n.png"/></texture><bsdf type="diffuse"/></bsdf></shape></scene>')
+    r = durer.render(durer.load(tmp_path / "s.xml"), 8, 8, samples=4, aovs=True)
+    m = 2.0 * rgb / 255.0 - 1.0
+    np.testing.assert_allclose(r.shading_normals, np.broadcast_to(m / np.linalg.norm(m), r.albedo.shape), atol=1e-5)
+    np.testing.assert_allclose(r.normals, np.broadcast_to((0, 0, 1), r.albedo.shape), atol=1e-6)
+
+
 def test_the_ray_caster_takes_the_first_hit():
     """No secondary rays: the mirror's own reflectance (kd + ks + kr + kt) and normal."""
     r = durer.render(mirror_scene(), 8, 8, integrator="raycast", aovs=True)

@@ -105,6 +105,24 @@ def edge_sign(e, px, py, qx, qy):
     return e > 0.0 or (e == 0.0 and (qy > py or (qy == py and qx < px)))
 
 
+@nb.njit(cache=True, inline="always")
+def edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
+    """Whether a ray on an edge or a vertex of the sheared triangle (some edge function exactly 0, none of the
+    others of another sign) counts as inside it: edge_sign's tie-break, on all three edges. Two edge functions of
+    0 put the ray on their common vertex only when that vertex is at the sheared origin; otherwise the triangle is
+    edge-on (its three vertices on one line through the ray, the third edge function a rounding leftover) and its
+    "hit" would be a point off the triangle: missed, as an edge-on triangle is. Scalars only, so the packet walks'
+    copies of the test inline it without reference counts."""
+    if e1 == 0.0 and e2 == 0.0 and (ax != 0.0 or ay != 0.0):
+        return False
+    if e2 == 0.0 and e0 == 0.0 and (bx != 0.0 or by != 0.0):
+        return False
+    if e0 == 0.0 and e1 == 0.0 and (cx != 0.0 or cy != 0.0):
+        return False
+    s0 = edge_sign(e0, bx, by, cx, cy)
+    return s0 == edge_sign(e1, cx, cy, ax, ay) and s0 == edge_sign(e2, ax, ay, bx, by)
+
+
 @nb.njit(cache=True, inline="always", error_model="numpy")
 def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max):
     """Woop, Benthin & Wald (2013): (t, u, v) of the hit, u, v the weights of vertex1 and vertex2, or t = inf.
@@ -115,7 +133,7 @@ def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min,
     edge's 2D edge function from identical numbers with exactly opposite sign: a ray can fall on the edge, never
     between. A ray exactly on an edge or a vertex (an edge function of 0) is decided by edge_sign, which gives
     the edge to exactly one of the triangles sharing it and the vertex to one triangle of its fan: each crossing
-    of a closed mesh counts once. Edge-on and degenerate triangles (determinant 0) are missed. No fused
+    of a closed mesh counts once (edge_tie). Edge-on and degenerate triangles (determinant 0) are missed. No fused
     multiply-add (fastmath is off), which would break that symmetry.
     """
     b = np.uint64(base)  # unsigned offsets: no negative-index wraparound on the loads
@@ -136,10 +154,8 @@ def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min,
     # on incoherent rays
     if min(e0, min(e1, e2)) < 0.0 and max(e0, max(e1, e2)) > 0.0:
         return INF, 0.0, 0.0
-    if e0 == 0.0 or e1 == 0.0 or e2 == 0.0:  # on an edge or a vertex (rare): the tie-break
-        s0 = edge_sign(e0, bx, by, cx, cy)
-        if s0 != edge_sign(e1, cx, cy, ax, ay) or s0 != edge_sign(e2, ax, ay, bx, by):
-            return INF, 0.0, 0.0
+    if (e0 == 0.0 or e1 == 0.0 or e2 == 0.0) and not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):  # (rare)
+        return INF, 0.0, 0.0
     det = e0 + e1 + e2
     if det == 0.0:
         return INF, 0.0, 0.0

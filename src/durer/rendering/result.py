@@ -23,12 +23,13 @@ class RenderResult:
     position float32 (H,W,3) world-space point and uv float32 (H,W,2) surface UV (rendering/hit_aovs.py), 0 on a
     miss; else None. Unlike Mitsuba's aov, which filters them with the film's filter, they are not filtered.
     With options.aovs or options.denoise, the denoiser's features, filtered like the colour: albedo (H,W,3), the
-    reflectance of each sample's first non-specular hit (seen through mirrors and glass, tinted by them; 0 where
-    the ray escapes), and shading_normals (H,W,3), that hit's normal (not unit after filtering); from the path
-    tracer also emission and environment (H,W,3), the part of the colour that is light seen directly or through
-    mirrors and glass, from surface emitters and from the environment (the denoiser's split); else None. With
-    options.denoise, color is OIDN's output and denoise_seconds its time (included in seconds); the other outputs
-    are then filtered by a one-pixel box, the emission and the colour by the scene's filter (rendering/denoise.py).
+    reflectance of each sample's first non-specular hit (seen through mirrors and glass, tinted by them; 0 where the
+    ray escapes), and shading_normals (H,W,3), that hit's shading normal, a normal or bump map's included (not unit
+    after filtering); from the path tracer also emission and environment (H,W,3), the part of the colour that is
+    light seen directly or through mirrors and glass, from surface emitters and from the environment (the denoiser's
+    split); else None. With options.denoise, color is OIDN's output and denoise_seconds its time (included in
+    seconds); the other outputs are then filtered by a one-pixel box, the emission and the colour by the scene's
+    filter (rendering/denoise.py).
     """
 
     color: np.ndarray

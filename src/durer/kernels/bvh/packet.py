@@ -23,7 +23,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from ..common import JIT, SPHERE, TRIANGLE
-from ..intersect import edge_sign, sphere_hit_in_object_space
+from ..intersect import edge_tie, sphere_hit_in_object_space
 from ..small_sort import insert_ascending
 from .chunks import (
     _BEST,
@@ -84,7 +84,7 @@ def _mixed(e0, e1, e2):
 @nb.njit(**JIT, inline="always")
 def _any_inside(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, rr):
     """Whether any of the packet's rays may pass the watertight test's edge test of the triangle (edge functions
-    without mixed signs: a superset of the rays _packet_leaf accepts, which also settles ties by edge_sign): most
+    without mixed signs: a superset of the rays _packet_leaf accepts, which also settles ties by edge_tie): most
     triangles of a leaf miss every ray of a 4 x 4 tile, and this loop (no division, no stores) lets _packet_leaf
     skip them."""
     inside = 0
@@ -154,14 +154,13 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
 def _packet_ties(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, fp, rr, any_mode):
     """The rays of the packet that lie exactly on an edge or a vertex of the triangle (rare), which _packet_leaf's
     vector loop leaves out: the one-ray test's decision for them (the same arithmetic, to the bit, and
-    intersect.edge_sign's tie-break), recorded as _packet_leaf records a hit. Kept out of the vector loop so that
+    intersect.edge_tie's tie-break), recorded as _packet_leaf records a hit. Kept out of the vector loop so that
     its common case does no more work than before the tie-break."""
     for k in range(PACKET):
         az, bz, cz, ax, ay, bx, by, cx, cy, e0, e1, e2 = _edges(rr, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0)
         if not (e0 == 0.0 or e1 == 0.0 or e2 == 0.0):
             continue
-        s0 = edge_sign(e0, bx, by, cx, cy)
-        if s0 != edge_sign(e1, cx, cy, ax, ay) or s0 != edge_sign(e2, ax, ay, bx, by):
+        if not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
             continue
         det = e0 + e1 + e2
         if det == 0.0:

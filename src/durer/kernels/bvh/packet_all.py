@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 
 from ..common import JIT, SPHERE, TRIANGLE
-from ..intersect import edge_sign, sphere_hit_in_object_space
+from ..intersect import edge_tie, sphere_hit_in_object_space
 from .chunks import _BEST, _DX, _DY, _DZ, _OX, _OY, _OZ, _SZ, _TMIN, object_packet
 from .layout import PACKET, leaf_range
 from .packet import _any_inside, _edges, _mixed, _packet_far, packet_extents, packet_node
@@ -86,8 +86,7 @@ def _triangle_all(j, p, leaf_tri, kx, ky, kz, ro, inst, cnt, bufs, store):
                                                                    cz0)
             if not (e0 == 0.0 or e1 == 0.0 or e2 == 0.0) or _mixed(e0, e1, e2):
                 continue
-            s0 = edge_sign(e0, bx, by, cx, cy)
-            if s0 != edge_sign(e1, cx, cy, ax, ay) or s0 != edge_sign(e2, ax, ay, bx, by):
+            if not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
                 continue
             det = e0 + e1 + e2
             if det == 0.0:

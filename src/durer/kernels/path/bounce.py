@@ -120,14 +120,20 @@ def shade_path(ray, hit, kind, prim, t, normals, surf, se, s, miss, j, sample, k
         L[j, 2] += t2 * le2 * w
         if seek:
             _seen(aux[3], j, 3, t0 * le0 * w, t1 * le1 * w, t2 * le2 * w)
+    found = False  # the features were taken at this hit: a map's normal replaces theirs below
     if seek:
-        seek = _features_at(P, hit, s, hx, hy, hz, dx, dy, dz, j, aux) and not last
+        cont = _features_at(P, hit, s, hx, hy, hz, dx, dy, dz, j, aux)
+        found = not cont and hit and s >= 0
+        seek = cont and not last
     if not hit or last or s < 0:
         return shadow_ok, so, sd, st, sc, (0.0, 0.0, 0.0), so, sd, prev, 0.0
     sgn = -1.0 if P[s, FLIP] != 0 else 1.0
     n0x, n0y, n0z = hx * sgn, hy * sgn, hz * sgn
     (nx, ny, nz), ts, tt, bent, side_n = shading_frame(P, s, TI, TD, (n0x, n0y, n0z), (gx * sgn, gy * sgn, gz * sgn),
                                                        surf, (-dx, -dy, -dz))
+    if found and bent:
+        fn = aux[2]
+        fn[j, 0], fn[j, 1], fn[j, 2] = nx * sgn, ny * sgn, nz * sgn
     wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
     scale = 1e-7 * (1.0 + max(abs(px), abs(py), abs(pz)))
     # --- next-event estimation (light sampling's share of MIS)
@@ -191,9 +197,10 @@ def _features_at(P, hit, s, gx, gy, gz, dx, dy, dz, j, aux):
     """The denoiser's features of path j at this hit: on an emitter seen from its emitting side, its radiance's
     colour (scaled to a maximum of 1: the denoiser then sees the light's edge, which a light with the ceiling's BSDF
     would not show); on a surface with a non-delta lobe, bsdf_albedo; either times the tint so far, with the
-    geometric normal, written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does where the path
-    escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass), whose sampled lobe
-    multiplies the tint in shade_path."""
+    shading normal (shade_bounce then puts a normal or bump map's perturbed normal in its place: OIDN keeps the
+    map's detail only if it sees it), written to aux[1][j], aux[2][j], and the search ends (tint 0), as it does
+    where the path escapes or meets no BSDF. Returns whether it goes on: a delta-only surface (mirror, glass),
+    whose sampled lobe multiplies the tint in shade_path."""
     tint, albedo, normal, _ = aux
     if hit and s >= 0:
         sgn = -1.0 if P[s, FLIP] != 0 else 1.0

@@ -23,7 +23,7 @@ from ..bvh.items import unit_normal
 from ..bvh.layout import PACKET, leaf_range
 from ..bvh.packet import _any_inside, _edges, _mixed, _packet_far, packet_extents, packet_node
 from ..common import JIT
-from ..intersect import edge_sign
+from ..intersect import edge_tie
 from .closest import POINTS_PER_BLOCK
 from .crossings import EDGE_MARGIN, GRAZE, signed_crossings
 from .winding import away_from, lane_bound, object_point, sphere_winding
@@ -49,7 +49,7 @@ def _judge(k, ro, t_eps, nx, ny, nz, e0, e1, e2, az, bz, cz, signed, bad):
 @nb.njit(**JIT, inline="always")
 def _triangle_crossings(j, leaf_prim, leaf_tri, kx, ky, kz, ro, t_eps, signed, bad):
     """Triangle slot j against every live ray of the packet ro: the rays the one-ray watertight test would find
-    crossing it (a vector loop; ties on an edge or vertex by edge_sign after it), each then judged (_judge)."""
+    crossing it (a vector loop; ties on an edge or vertex by edge_tie after it), each then judged (_judge)."""
     if leaf_prim[j] < 0:  # a sphere slot: cannot happen in a mesh's tree; be safe (signed_crossings does the same)
         for k in range(PACKET):
             if ro[_BEST + k] > -np.inf:
@@ -81,8 +81,7 @@ def _triangle_crossings(j, leaf_prim, leaf_tri, kx, ky, kz, ro, t_eps, signed, b
                                                                    cz0)
             if not (e0 == 0.0 or e1 == 0.0 or e2 == 0.0) or _mixed(e0, e1, e2):
                 continue
-            s0 = edge_sign(e0, bx, by, cx, cy)
-            if s0 != edge_sign(e1, cx, cy, ax, ay) or s0 != edge_sign(e2, ax, ay, bx, by):
+            if not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
                 continue
             det = e0 + e1 + e2
             if det == 0.0:
