@@ -325,7 +325,7 @@ def _gather_each(points, values, per_pixel, halo, tile, width, height, kind, r, 
     channels = values.shape[1]
     hr, hc, _, hw = halo
     tr, tc, th, tw = tile
-    dense = _finite(values)
+    dense = radius > 0 and _finite(values)  # radius 0 (the box): one pixel, every weight 1, no scan
     for i in range(th):
         row = tr + i
         cy = height - row - 0.5
@@ -382,7 +382,7 @@ def _gather_separable(points, values, per_pixel, halo, tile, width, height, kind
                 else:
                     wx[s, k] = _weight1(kind, r, bc, points[s, 0] - cx)
                     wy[s, k] = _weight1(kind, r, bc, points[s, 1] - cy)
-    dense = _finite(values)
+    dense = radius > 0 and _finite(values)  # radius 0 (the box): one pixel, every weight 1, no scan
     for i in range(th):
         row = tr + i
         for j in range(tw):
