@@ -103,7 +103,13 @@ def _pixels(page) -> np.ndarray:
 
 
 def _reset(page) -> str:
+    """Back to the scene's camera: its final frame, of the generation the click started. The page may still show
+    the final frame of an earlier test's camera (the server's session outlives a page) until the click's state
+    message arrives, so the wait starts once the generation has moved past the one before the click."""
+    page.wait_for_function("document.body.dataset.generation !== undefined", timeout=WAIT_MS)  # connected
+    before = int(page.evaluate("Number(document.body.dataset.generation)"))
     page.click("#reset")
+    page.wait_for_function("(g) => Number(document.body.dataset.generation) > g", arg=before, timeout=WAIT_MS)
     return _wait_final(page)
 
 
