@@ -77,6 +77,7 @@ def test_child_codes_refuse_a_strided_array():
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), n_tri=st.integers(1, 300))
+@example(seed=64684, n_tri=300)  # ray 328 in triangle 81's plane, edge functions all rounding leftovers of one sign
 def test_closest_walk_equals_brute_force_on_grazing_rays(seed, n_tri):
     """Vertices on a quarter grid, so that many boxes share planes, and rays that graze them: origins on the grid,
     directions along an axis (a zero component: the 1e-300 reciprocal) or towards a vertex (through edges and

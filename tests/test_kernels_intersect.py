@@ -123,6 +123,41 @@ def test_watertight_million_rays_from_inside_closed_icosphere():
     assert np.isfinite(t).all()
 
 
+@settings(max_examples=200, deadline=None)
+@given(vertices=st.lists(st.integers(0, 16), min_size=9, max_size=9), at=st.tuples(*[st.integers(-8, 8)] * 2),
+       towards=st.integers(0, 2))
+def test_rays_in_the_triangles_plane_miss(vertices, at, towards):
+    """A ray in a triangle's plane misses it, through the one-ray test and a scene's walks: vertices on a quarter
+    grid, the origin a quarter-step combination of the edges (exactly in the plane), aimed at a vertex. Their edge
+    functions are rounding leftovers that share a sign for ~9% of such rays, which the test took for hits at
+    arbitrary t before intersect.edge_on bounded the determinant's rounding (as ray 328 of
+    test_closest_walk_equals_brute_force_on_grazing_rays's seed 64684: t = 0.5, off the triangle)."""
+    tri = np.array(vertices, float).reshape(3, 3) / 4
+    e1, e2 = tri[1] - tri[0], tri[2] - tri[0]
+    o = tri[0] + at[0] / 4 * e1 + at[1] / 4 * e2
+    d = tri[towards] - o
+    if not np.cross(e1, e2).any() or not d.any():
+        return
+    assert intersect_triangle(*o, *d, tri, 0.0, np.inf)[0] == np.inf
+    scene = RaycastingScene()
+    scene.add_triangles(tri, np.array([[0, 1, 2]]))
+    rays = np.tile(np.concatenate([o, d]), (16, 1))  # 16 equal rays: one coherent packet too
+    assert np.isinf(scene.cast_rays(rays)["t_hit"]).all()
+    assert (scene.count_intersections(rays) == 0).all()
+    assert not scene.test_occlusions(rays).any()
+
+
+@pytest.mark.parametrize("tilt", [1e-3, 1e-6, 1e-9, 1e-12])
+def test_grazing_rays_just_off_the_plane_hit(tilt):
+    """Rays leaving the plane at a sine down to 1e-12 still hit where they cross it: only a ray in the plane up to
+    rounding (edge_on's bound, ~1e-15 of the triangle's scale) is missed."""
+    o = np.array([-1.0, 0.3, tilt])
+    d = np.array([1.2, 0.0, -tilt])  # crosses z = 0 at t = 1, at (0.2, 0.3), inside
+    t, u, v = intersect_triangle(*o, *d, TRI, 0.0, np.inf)
+    assert t == pytest.approx(1.0, rel=1e-9)
+    assert (u, v) == pytest.approx((0.2, 0.3), rel=1e-6)
+
+
 def test_watertight_packets_aimed_along_edges_and_at_vertices():
     """The same for coherent rays, which take the packet traversal: 16 rays from the centre to 16 points along
     one edge (its two vertices included) make one packet; every ray of every packet hits."""

@@ -16,6 +16,7 @@ from .common import DISK_CODE
 
 INF = np.inf
 _U3, _U6 = np.uint64(3), np.uint64(6)
+EDGE_ON = 2.0 ** -49  # edge_on's factor: 16 units of float64 rounding, twice the first-order bound's 8
 
 
 @nb.njit(cache=True, inline="always")
@@ -123,6 +124,23 @@ def edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
     return s0 == edge_sign(e1, cx, cy, ax, ay) and s0 == edge_sign(e2, ax, ay, bx, by)
 
 
+@nb.njit(cache=True, inline="always")
+def edge_on(det, ax, ay, az, bx, by, bz, cx, cy, cz, sx, sy):
+    """Whether the determinant det = e0 + e1 + e2 of the sheared triangle is 0 up to its rounding: the ray lies in
+    the triangle's plane (an edge-on triangle, whose sheared vertices lie on one line through the origin), and the
+    edge functions are leftovers of rounding that may share a sign and pass for a hit off the triangle. Each sheared
+    coordinate (x = (X - o) - s z) is within 2u (|x| + 2 |s z|) of its exact value (u = 2^-53, the shear's and the
+    subtraction's roundings, those of s and z included), so det is within 8u B of its exact value, B summing
+    |P Q'| + |P' Q| over the three edges' vertex pairs (P, Q those bounds of x and y). Beyond that bound the
+    triangle's projected area is real, so a genuine hit is missed only at a grazing sine below ~1e-15 (its t the
+    quotient of two rounding errors anyway). Scalars only, so the packet walks' copies of the test inline it."""
+    tx, ty = 2.0 * abs(sx), 2.0 * abs(sy)
+    pa, qa = abs(ax) + tx * abs(az), abs(ay) + ty * abs(az)
+    pb, qb = abs(bx) + tx * abs(bz), abs(by) + ty * abs(bz)
+    pc, qc = abs(cx) + tx * abs(cz), abs(cy) + ty * abs(cz)
+    return abs(det) <= EDGE_ON * ((pc * qb + pb * qc) + (pa * qc + pc * qa) + (pb * qa + pa * qb))
+
+
 @nb.njit(cache=True, inline="always", error_model="numpy")
 def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max):
     """Woop, Benthin & Wald (2013): (t, u, v) of the hit, u, v the weights of vertex1 and vertex2, or t = inf.
@@ -133,8 +151,8 @@ def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min,
     edge's 2D edge function from identical numbers with exactly opposite sign: a ray can fall on the edge, never
     between. A ray exactly on an edge or a vertex (an edge function of 0) is decided by edge_sign, which gives
     the edge to exactly one of the triangles sharing it and the vertex to one triangle of its fan: each crossing
-    of a closed mesh counts once (edge_tie). Edge-on and degenerate triangles (determinant 0) are missed. No fused
-    multiply-add (fastmath is off), which would break that symmetry.
+    of a closed mesh counts once (edge_tie). Edge-on and degenerate triangles (determinant 0 up to its rounding:
+    edge_on) are missed. No fused multiply-add (fastmath is off), which would break that symmetry.
     """
     b = np.uint64(base)  # unsigned offsets: no negative-index wraparound on the loads
     ux, uy, uz = np.uint64(kx), np.uint64(ky), np.uint64(kz)
@@ -157,7 +175,7 @@ def watertight_triangle(tri, base, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min,
     if (e0 == 0.0 or e1 == 0.0 or e2 == 0.0) and not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):  # (rare)
         return INF, 0.0, 0.0
     det = e0 + e1 + e2
-    if det == 0.0:
+    if edge_on(det, ax, ay, az, bx, by, bz, cx, cy, cz, sx, sy):  # (rare: det 0 up to rounding)
         return INF, 0.0, 0.0
     t = sz * (e0 * az + e1 * bz + e2 * cz) / det
     if t_min < t < t_max:

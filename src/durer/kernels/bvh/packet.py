@@ -23,7 +23,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from ..common import JIT, SPHERE, TRIANGLE
-from ..intersect import edge_tie, sphere_hit_in_object_space
+from ..intersect import edge_on, edge_tie, sphere_hit_in_object_space
 from ..small_sort import insert_ascending
 from .chunks import (
     _BEST,
@@ -76,6 +76,13 @@ def _edges(rr, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0):
 
 
 @nb.njit(**JIT, inline="always")
+def _flat(rr, k, det, ax, ay, az, bx, by, bz, cx, cy, cz):
+    """intersect.edge_on for ray k of the packet rr (its shear read from the packet's rows): the ray lies in the
+    triangle's plane up to rounding, a miss."""
+    return edge_on(det, ax, ay, az, bx, by, bz, cx, cy, cz, rr[_SX + k], rr[_SY + k])
+
+
+@nb.njit(**JIT, inline="always")
 def _mixed(e0, e1, e2):
     """Whether edge functions have mixed signs (the ray passes outside the triangle)."""
     return ((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0))
@@ -115,14 +122,16 @@ def _packet_leaf(code, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, kx,
                 continue
             ties = 0
             for k in range(PACKET):
-                az, bz, cz, _, _, _, _, _, _, e0, e1, e2 = _edges(rr, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0)
+                az, bz, cz, ax, ay, bx, by, cx, cy, e0, e1, e2 = _edges(rr, k, ax0, ay0, az0, bx0, by0, bz0, cx0,
+                                                                       cy0, cz0)
                 det = e0 + e1 + e2
                 t = rr[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
                 best = rr[_BEST + k]
                 # a ray on an edge or a vertex (an edge function of 0) is left to _packet_ties, after this loop
                 on_edge = (e0 == 0.0) | (e1 == 0.0) | (e2 == 0.0)
                 ties += on_edge
-                ok = (det != 0.0) & (rr[_TMIN + k] < t) & (t < best) & ~on_edge & ~_mixed(e0, e1, e2)
+                flat = _flat(rr, k, det, ax, ay, az, bx, by, bz, cx, cy, cz)
+                ok = ~flat & (rr[_TMIN + k] < t) & (t < best) & ~on_edge & ~_mixed(e0, e1, e2)
                 if any_mode:
                     rr[_BEST + k] = -np.inf if ok else best
                 else:
@@ -163,7 +172,7 @@ def _packet_ties(ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0, fp, rr, any_mode):
         if not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
             continue
         det = e0 + e1 + e2
-        if det == 0.0:
+        if _flat(rr, k, det, ax, ay, az, bx, by, bz, cx, cy, cz):
             continue
         t = rr[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
         if rr[_TMIN + k] < t < rr[_BEST + k]:

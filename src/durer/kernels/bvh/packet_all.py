@@ -21,7 +21,7 @@ from ..common import JIT, SPHERE, TRIANGLE
 from ..intersect import edge_tie, sphere_hit_in_object_space
 from .chunks import _BEST, _DX, _DY, _DZ, _OX, _OY, _OZ, _SZ, _TMIN, object_packet
 from .layout import PACKET, leaf_range
-from .packet import _any_inside, _edges, _mixed, _packet_far, packet_extents, packet_node
+from .packet import _any_inside, _edges, _flat, _mixed, _packet_far, packet_extents, packet_node
 from .single import blas_all
 
 HIT_CAP = 16  # hits a ray keeps in a packet's list buffer (a ray with more is walked again alone)
@@ -62,12 +62,14 @@ def _triangle_all(j, p, leaf_tri, kx, ky, kz, ro, inst, cnt, bufs, store):
     ties = 0
     mask = np.int64(0)  # store: the rays that hit, found by the vector loop and recorded after it
     for k in range(PACKET):
-        az, bz, cz, _, _, _, _, _, _, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0)
+        az, bz, cz, ax, ay, bx, by, cx, cy, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0,
+                                                               cz0)
         det = e0 + e1 + e2
         t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
         on_edge = (e0 == 0.0) | (e1 == 0.0) | (e2 == 0.0)
         ties += on_edge
-        hit = (det != 0.0) & (ro[_TMIN + k] < t) & (t < ro[_BEST + k]) & ~on_edge & ~_mixed(e0, e1, e2)
+        flat = _flat(ro, k, det, ax, ay, az, bx, by, bz, cx, cy, cz)
+        hit = ~flat & (ro[_TMIN + k] < t) & (t < ro[_BEST + k]) & ~on_edge & ~_mixed(e0, e1, e2)
         if store:
             mask |= np.int64(hit) << k
         else:
@@ -89,7 +91,7 @@ def _triangle_all(j, p, leaf_tri, kx, ky, kz, ro, inst, cnt, bufs, store):
             if not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
                 continue
             det = e0 + e1 + e2
-            if det == 0.0:
+            if _flat(ro, k, det, ax, ay, az, bx, by, bz, cx, cy, cz):
                 continue
             t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
             if ro[_TMIN + k] < t < ro[_BEST + k]:

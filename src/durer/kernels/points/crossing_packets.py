@@ -21,7 +21,7 @@ import numpy as np
 from ..bvh.chunks import _BEST, _DX, _DY, _DZ, _EXT, _EXT_TMIN, _SZ, _TMIN, object_packet, packet_rows, packet_setup
 from ..bvh.items import unit_normal
 from ..bvh.layout import PACKET, leaf_range
-from ..bvh.packet import _any_inside, _edges, _mixed, _packet_far, packet_extents, packet_node
+from ..bvh.packet import _any_inside, _edges, _flat, _mixed, _packet_far, packet_extents, packet_node
 from ..common import JIT
 from ..intersect import edge_tie
 from .closest import POINTS_PER_BLOCK
@@ -68,12 +68,14 @@ def _triangle_crossings(j, leaf_prim, leaf_tri, kx, ky, kz, ro, t_eps, signed, b
     ties = 0
     mask = np.int64(0)
     for k in range(PACKET):
-        az, bz, cz, _, _, _, _, _, _, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0, cz0)
+        az, bz, cz, ax, ay, bx, by, cx, cy, e0, e1, e2 = _edges(ro, k, ax0, ay0, az0, bx0, by0, bz0, cx0, cy0,
+                                                               cz0)
         det = e0 + e1 + e2
         t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
         on_edge = (e0 == 0.0) | (e1 == 0.0) | (e2 == 0.0)
         ties += on_edge
-        hit = (det != 0.0) & (ro[_TMIN + k] < t) & (t < ro[_BEST + k]) & ~on_edge & ~_mixed(e0, e1, e2)
+        flat = _flat(ro, k, det, ax, ay, az, bx, by, bz, cx, cy, cz)
+        hit = ~flat & (ro[_TMIN + k] < t) & (t < ro[_BEST + k]) & ~on_edge & ~_mixed(e0, e1, e2)
         mask |= np.int64(hit) << k
     if ties:
         for k in range(PACKET):  # rays on an edge or a vertex: intersect.watertight_triangle's tie-break
@@ -84,7 +86,7 @@ def _triangle_crossings(j, leaf_prim, leaf_tri, kx, ky, kz, ro, t_eps, signed, b
             if not edge_tie(e0, e1, e2, ax, ay, bx, by, cx, cy):
                 continue
             det = e0 + e1 + e2
-            if det == 0.0:
+            if _flat(ro, k, det, ax, ay, az, bx, by, bz, cx, cy, cz):
                 continue
             t = ro[_SZ + k] * (e0 * az + e1 * bz + e2 * cz) / det
             if ro[_TMIN + k] < t < ro[_BEST + k]:
