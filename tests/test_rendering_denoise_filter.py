@@ -54,6 +54,29 @@ def test_refilter_keeps_constants_and_spreads_an_impulse_by_the_weights():
     assert out[:2].max() == 0 and out[:, :3].max() == 0
 
 
+@pytest.mark.parametrize("kw", [GAUSSIAN, {"filter": "lanczos", "filter_radius": 2.0},
+                                {"filter": "tent", "filter_radius": 1.5}])
+def test_refilter_is_the_direct_weighted_mean_of_the_neighbours(kw):
+    """refilter (by rows then columns for a separable filter, by every tap for the course's radial tent) against
+    the weighted mean written out with NumPy: each pixel the pixel_weights-weighted sum of the neighbours inside
+    the image over their weights' sum (the lanczos' negative lobes included)."""
+    options = RenderOptions(**kw)
+    image = np.random.default_rng(11).random((13, 17, 3))
+    w = pixel_weights(options)
+    r = w.shape[0] // 2
+    expected = np.empty_like(image)
+    for y in range(13):
+        for x in range(17):
+            num, den = np.zeros(3), 0.0
+            for a in range(-r, r + 1):
+                for b in range(-r, r + 1):
+                    if 0 <= y + a < 13 and 0 <= x + b < 17:
+                        num += w[a + r, b + r] * image[y + a, x + b]
+                        den += w[a + r, b + r]
+            expected[y, x] = num / den
+    np.testing.assert_allclose(refilter(image, options), expected, rtol=1e-12, atol=1e-12)
+
+
 def test_refilter_is_the_films_filter_on_an_image_constant_over_each_pixel():
     """Samples whose value is their pixel's (one colour per pixel), filtered by the film with the gaussian, give
     refilter of the per-pixel image: the film's weights over 64 stratified samples against the filter's mean."""

@@ -380,7 +380,9 @@ class _Values:
         """Copy one batch's results (rays `sel` of the unit) into place."""
         if self.packed:
             f64 = np.ascontiguousarray
-            split = f64(getattr(res, self.split[0][0]), np.float64) if self.split else _NO_SPLIT
+            # the split part as it is (the seen emission is a column slice of the path tracer's (n, 6)): pack reads
+            # any strides, so no copy; the sources stay contiguous (pack iterates them: one array type)
+            split = np.asarray(getattr(res, self.split[0][0]), np.float64) if self.split else _NO_SPLIT
             sources = tuple(f64(getattr(res, name), np.float64) for name in self.at if name != MOMENT)
             film.pack(self.inputs, self.part, sel.start, f64(res.color, np.float64), split, sources,
                       self.at[MOMENT].start if self.moment else -1)
@@ -414,14 +416,10 @@ def _gather_denoised(points, inputs: np.ndarray, part: np.ndarray, m: int, halo:
     after denoising) by the scene's filter, into sums[:, -k-1:-1] with its weights' sum in the last column
     (SPLIT_WEIGHT)."""
     o, width, height, k = job.options, job.width, job.height, part.shape[1]
-    box = replace(o, **PIXEL_FILTER)
-    own = np.zeros((tile.pixels, inputs.shape[1]))
-    film.gather(points, inputs, m, halo.rect, tile.rect, width, height, box, own, weight)
-    sums[:, :own.shape[1]] = own
+    box = replace(o, **PIXEL_FILTER)  # sums (zeros) are gathered into in place, column views: no copies
+    film.gather(points, inputs, m, halo.rect, tile.rect, width, height, box, sums[:, :inputs.shape[1]], weight)
     if k:
-        split, wsum = np.zeros((tile.pixels, k)), np.zeros(tile.pixels)
-        film.gather(points, part, m, halo.rect, tile.rect, width, height, o, split, wsum)
-        sums[:, -k - 1:-1], sums[:, -1] = split, wsum
+        film.gather(points, part, m, halo.rect, tile.rect, width, height, o, sums[:, -k - 1:-1], sums[:, -1])
 
 
 def _nearest(points, t, normal, m: int, halo: Tile, tile: Tile, height: int, acc: Accumulators) -> np.ndarray:
