@@ -34,10 +34,16 @@ import numpy as np
 import durer
 import durer.rendering.path as path_mod
 from durer.kernels.common import JIT, MISS, PLANE
-from durer.kernels.path.bounce import shade_path
+from durer.kernels.path.bounce import dim1, dim2, shade_path
 from durer.kernels.path.bsdf import anisotropic
-from durer.kernels.path.columns import TEXTURED
+from durer.kernels.path.columns import FLIP, SMOOTH, TEXTURED
+from durer.kernels.path.compose import bsdf_eval, bsdf_sample
+from durer.kernels.path.emitters import pick_sample
+from durer.kernels.path.envmap import envmap_eval_pdf, has_map
+from durer.kernels.path.qmc import sobol2, uniform1
 from durer.kernels.path.surface import surface_at, uv_at
+from durer.kernels.path.textures import resolve_row, shading_frame
+from durer.kernels.path.warps import power_heuristic1, to_local3, to_world3
 from durer.kernels.path.wavefront import PIECES, _any, _closest, _planes, trace_bounce
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,7 +54,9 @@ from mitsuba_references import SCENES, mirror  # noqa: E402
 from pathtrace_set import resize  # noqa: E402
 from test_project_mitsuba_scenes import LOADABLE  # noqa: E402
 
-MUTABLE = (1, 2, 3, 4, 5, 15, 16, 17, 18)  # trace_bounce's arguments it writes: o, d, thr, eta, prev, L, aux, first, alive
+STAGES = ("s:surface", "s:+miss env", "s:+light smp", "s:+nee eval", "s:+bsdf smp")
+# trace_bounce's arguments it writes: o, d, thr, eta, prev, L, aux, first, alive
+MUTABLE = (1, 2, 3, 4, 5, 15, 16, 17, 18)
 
 
 @nb.njit(**JIT, _nrt=False)
@@ -147,13 +155,70 @@ def walks(live, o, d, accel, t_min, given, rec, scratch, closest, shadow):
     return found
 
 
+@nb.njit(**JIT, _nrt=False)
+def shade_stages(live, o, d, path, surfaces, bsdf, lights, env, scalars, rec, scratch, stop):
+    """The shading's parts cumulatively, on the recorded hits: stop 1 the hit's surface (surface_at, UVs and
+    textures where the slot needs them, the shading frame); 2 also an escaped ray's envmap lookup; 3 also
+    next-event estimation's random numbers and light sample; 4 also the BSDF's eval there; 5 also BSDF sampling
+    (its random numbers, bsdf_sample, the world direction). Returns a sum of the results, so none is dropped."""
+    sample, keys, pkeys = path
+    tris, tri_mat, w2o, center, radius, normal_matrix, sph_mat, plane_normal, plane_mat, tri_n, tri_uv = surfaces
+    P0, T, tex = bsdf
+    TI, TD = tex
+    depth = scalars[0]
+    r_t, r_kind, r_prim = rec[0], rec[1], rec[2]
+    Q = scratch[2]
+    acc = 0.0
+    for k in range(live.shape[0]):
+        i = live[k]
+        ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
+        t, kind, prim = r_t[k], r_kind[k], r_prim[k]
+        if kind == MISS:
+            if stop >= 2 and has_map(env):
+                le, pdf = envmap_eval_pdf(env, dx, dy, dz)
+                acc += le[0] + pdf
+            continue
+        px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
+        gx, gy, gz, hx, hy, hz, s = surface_at(px, py, pz, kind, prim, tris, tri_mat, w2o, center, radius,
+                                               normal_matrix, sph_mat, plane_normal, plane_mat, tri_n)
+        if s < 0:
+            continue
+        P = P0
+        surf = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        if P[s, TEXTURED] != 0 or anisotropic(P, s):
+            surf = uv_at(px, py, pz, kind, prim, tris, tri_uv, w2o, center, radius)
+        if P[s, TEXTURED] != 0:
+            resolve_row(P, s, Q, 0, TI, TD, surf[0], surf[1])
+            P, s = Q, 0
+        sgn = -1.0 if P[s, FLIP] != 0 else 1.0
+        (nx, ny, nz), ts, tt, bent, side_n = shading_frame(P, s, TI, TD, (hx * sgn, hy * sgn, hz * sgn),
+                                                           (gx * sgn, gy * sgn, gz * sgn), surf, (-dx, -dy, -dz))
+        wi = to_local3(-dx, -dy, -dz, ts, tt, nx, ny, nz)
+        acc += wi[2]
+        if stop >= 3 and lights[0].shape[0] and P[s, SMOOTH] != 0:
+            u0, u1 = sobol2(pkeys[i], sample[i], dim2(depth, 0))
+            ld, ldist, lw, lpdf = pick_sample(lights, env, tex, uniform1(keys[i], dim1(depth, 0)), u0, u1, px, py, pz)
+            acc += lpdf + lw[0]
+            if stop >= 4:
+                wo = to_local3(ld[0], ld[1], ld[2], ts, tt, nx, ny, nz)
+                f0, f1, f2, bpdf = bsdf_eval(P, T, s, wi, wo)
+                acc += f0 * power_heuristic1(lpdf, bpdf)
+        if stop >= 5:
+            u = uniform1(keys[i], dim1(depth, 1))
+            u0, u1 = sobol2(pkeys[i], sample[i], dim2(depth, 1))
+            wl, bw, bpdf, delta, beta = bsdf_sample(P, T, s, wi, u, u0, u1)
+            wx, wy, wz = to_world3(wl[0], wl[1], wl[2], ts, tt, nx, ny, nz)
+            acc += wx + bw[0] + bpdf
+    return acc
+
+
 def _copy(x):
     return tuple(_copy(v) for v in x) if isinstance(x, tuple) else x.copy()
 
 
 def _restore(dst, src):
     if isinstance(dst, tuple):
-        for a, b in zip(dst, src):
+        for a, b in zip(dst, src, strict=True):
             _restore(a, b)
     else:
         np.copyto(dst, src)
@@ -182,6 +247,22 @@ def timed(fn) -> float:
     return time.thread_time() - c
 
 
+def _runs(args: tuple, rec: tuple) -> dict:
+    """Each variant of one captured call, as a function of nothing."""
+    live, o, d, accel, tmin, given, work = args[0], args[1], args[2], args[7], args[14], args[19], args[20]
+    runs = {
+        "whole": lambda: trace_bounce(*args, 0, PIECES),
+        "record": lambda: bounce_copy(*args, rec, False),
+        "shade": lambda: bounce_copy(*args, rec, True),
+        "closest": lambda: walks(live, o, d, accel, tmin, given, rec, work, True, False),
+        "shadow": lambda: walks(live, o, d, accel, tmin, given, rec, work, False, True),
+    }
+    for stop, n in enumerate(STAGES):
+        runs[n] = lambda stop=stop: shade_stages(live, o, d, args[6], args[8], args[10], args[11], args[12], args[13],
+                                                 rec, work, stop + 1)
+    return runs
+
+
 def split(calls, rounds: int) -> dict:
     """Each variant's thread CPU seconds per depth (median over rounds) and the rays walked."""
     recs = []
@@ -192,20 +273,13 @@ def split(calls, rounds: int) -> dict:
         _restore(tuple(args[j] for j in MUTABLE), tuple(saved[j] for j in MUTABLE))
         bounce_copy(*args, rec, False)
         recs.append(rec)
-    names = ("whole", "record", "shade", "closest", "shadow")
+    names = ("whole", "record", "shade", "closest", "shadow") + STAGES
     per = {n: defaultdict(list) for n in names}
     for r in range(rounds + 1):  # round 0 warms (compiles) every variant and is not counted
         acc = {n: defaultdict(float) for n in names}
-        for (args, saved), rec in zip(calls, recs):
+        for (args, saved), rec in zip(calls, recs, strict=True):
             depth = min(args[13][0], 3)
-            live, o, d, accel, tmin, given, work = args[0], args[1], args[2], args[7], args[14], args[19], args[20]
-            runs = {
-                "whole": lambda: trace_bounce(*args, 0, PIECES),
-                "record": lambda: bounce_copy(*args, rec, False),
-                "shade": lambda: bounce_copy(*args, rec, True),
-                "closest": lambda: walks(live, o, d, accel, tmin, given, rec, work, True, False),
-                "shadow": lambda: walks(live, o, d, accel, tmin, given, rec, work, False, True),
-            }
+            runs = _runs(args, rec)
             for n in names:
                 _restore(tuple(args[j] for j in MUTABLE), tuple(saved[j] for j in MUTABLE))
                 acc[n][depth] += timed(runs[n])
