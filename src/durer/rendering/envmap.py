@@ -1,8 +1,8 @@
 """An environment map as a light: radiance lookups by direction (Mitsuba's latitude-longitude convention, see
 scene.lights.EnvironmentMap) and importance sampling proportional to the map's luminance times sin(theta), so bright
 skies and small suns are found by light sampling rather than by chance. The tables are built here once per render;
-lookups, sampling (O(log n): two binary searches, each started from a guide table) and pdfs are the Numba functions of kernels/path/envmap.py, which
-the path tracer's bounce calls per path and the methods below call on arrays."""
+lookups, sampling (O(log n): two binary searches, each started from a guide table) and pdfs are the Numba functions
+of kernels/path/envmap.py, which the path tracer's bounce calls per path and the methods below call on arrays."""
 
 from __future__ import annotations
 
