@@ -20,7 +20,11 @@ process CPU over all threads, and the ratios durer / scalar_rgb and durer / llvm
 medians over the scenes.
 
     DURER_SHARED=../shared PYTHONPATH=src python benchmarks/pathtrace_set.py [--res 128] [--spp 16] [--rounds 3]
-        [--only WORD ...] [--skip-llvm] [--rest 0.3]
+        [--only WORD ...] [--skip-llvm] [--rest 0.3] [--diffuse]
+
+--diffuse replaces every BSDF of the scene's files by Mitsuba's default `diffuse` (its id kept, so references still
+resolve; textures, maps, blends and two-sided wrappers go with it): both engines then do the same walks with
+trivial shading, which compares their traversal (issue 21 item 3's split; benchmarks/split_bounce.py).
 
 llvm_ad_rgb needs Debian's libllvm19; DRJIT_LIBLLVM_PATH is set to it when present.
 """
@@ -87,6 +91,29 @@ def resize(scene: Path, longer: int) -> tuple[int, int]:
     return new["width"], new["height"]
 
 
+def diffuse_only(scene: Path) -> None:
+    """Rewrite the mirrored scene file and every file it includes with each outermost <bsdf> replaced by a plain
+    `diffuse` of the same id and name (Mitsuba's default reflectance 0.5)."""
+    import xml.etree.ElementTree as ET
+
+    for inc in INCLUDE.findall(scene.read_text()):
+        diffuse_only(scene.parent / inc)
+    tree = ET.parse(scene)
+
+    def walk(node):
+        for k, child in enumerate(list(node)):
+            if child.tag == "bsdf":
+                keep = {a: child.attrib[a] for a in ("id", "name") if a in child.attrib}
+                node.remove(child)
+                node.insert(k, ET.Element("bsdf", {"type": "diffuse", **keep}))
+            else:
+                walk(child)
+    walk(tree.getroot())
+    text = ET.tostring(tree.getroot(), encoding="unicode")
+    scene.unlink()
+    scene.write_text(text)
+
+
 def time_call(fn) -> tuple[object, float, float]:
     start, cpu = time.perf_counter(), time.process_time()
     out = fn()
@@ -138,6 +165,7 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3, help="timed renders per engine and scene")
     ap.add_argument("--only", nargs="*", default=[], help="scenes whose path contains one of these words")
     ap.add_argument("--skip-llvm", action="store_true")
+    ap.add_argument("--diffuse", action="store_true", help="every BSDF replaced by a plain diffuse in both engines")
     ap.add_argument("--rest", type=float, default=0.3, help="seconds of rest before each timed render (the previous "
                     "engine's worker threads go idle)")
     a = ap.parse_args()
@@ -160,6 +188,8 @@ def main() -> None:
             root = mirror(Path(tmp) / "scenes", SCENES)
             xml = root / name
             w, h = resize(xml, a.res)
+            if a.diffuse:
+                diffuse_only(xml)
             render = {e: durer_renderer(xml, a.spp) if e == "durer" else mitsuba_renderer(e, xml, a.spp)
                       for e in engines}
             for e in engines:

@@ -1,14 +1,14 @@
 """An environment map as a light: radiance lookups by direction (Mitsuba's latitude-longitude convention, see
 scene.lights.EnvironmentMap) and importance sampling proportional to the map's luminance times sin(theta), so bright
 skies and small suns are found by light sampling rather than by chance. The tables are built here once per render;
-lookups, sampling (O(log n): two binary searches) and pdfs are the Numba functions of kernels/path/envmap.py, which
-the path tracer's bounce calls per path and the methods below call on arrays."""
+lookups, sampling (O(log n): two binary searches, each started from a guide table) and pdfs are the Numba functions
+of kernels/path/envmap.py, which the path tracer's bounce calls per path and the methods below call on arrays."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.path.envmap import envmap_eval_kernel, envmap_pdf_kernel, envmap_sample_kernel
+from ..kernels.path.envmap import GUIDE, envmap_eval_kernel, envmap_pdf_kernel, envmap_sample_kernel, guide_of
 from ..scene.lights import EnvironmentMap
 
 LUMINANCE = np.array([0.212671, 0.715160, 0.072169])  # linear sRGB / Rec. 709 luminance weights
@@ -36,7 +36,8 @@ class EnvMapLight:
         self.col_cdf = np.concatenate([np.zeros((self.h - 1, 1)), rows / rows[:, -1:]], axis=1)
         self.row_cdf /= self.row_cdf[-1]
         self.tables = tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (
-            self.grid, self.cell_pdf, self.row_cdf, self.col_cdf, self.to_local, self.to_world))
+            self.grid, self.cell_pdf, self.row_cdf, self.col_cdf, self.to_local, self.to_world)) + (
+            guide_of(self.row_cdf, self.h - 1), guide_of(self.col_cdf, self.w))
 
     def eval(self, d: np.ndarray) -> np.ndarray:
         """Radiance (N,3) arriving from directions d (N,3) (pointing away from the scene)."""
@@ -62,4 +63,5 @@ class EnvMapLight:
 def no_envmap() -> tuple[np.ndarray, ...]:
     """The tables of kernels/path/envmap.py for a scene without a map: the same array types, empty (one
     compilation of the kernels serves both)."""
-    return (np.zeros((0, 1, 3)), np.zeros((0, 0)), np.zeros(0), np.zeros((0, 1)), np.eye(3), np.eye(3))
+    return (np.zeros((0, 1, 3)), np.zeros((0, 0)), np.zeros(0), np.zeros((0, 1)), np.eye(3), np.eye(3),
+            np.zeros(GUIDE + 1, np.int32), np.zeros((0, GUIDE + 1), np.int32))

@@ -9,7 +9,8 @@ every path's numbers depend only on the path: the result is the same whatever th
 
 Numba's on-disk cache of shade_bounce is keyed on this file alone, not on the BSDF and emitter kernels it inlines:
 after a change there (the BSDF table gained its BECKMANN column; the emitters their SPOT and AREA_SHAPE kinds, the
-spot's texture and area lights' textured radiance), delete __pycache__ or touch this file and wavefront.py."""
+spot's texture and area lights' textured radiance; the environment map's guided cdf search), delete __pycache__ or
+touch this file and wavefront.py."""
 
 from __future__ import annotations
 

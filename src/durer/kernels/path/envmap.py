@@ -5,16 +5,20 @@ mapping, texel centres at u = (i + 1/2) / W and v = j / (H - 1)). The path trace
 escape and for next-event estimation; the array kernels below serve rendering/envmap.EnvMapLight.
 
 env = (grid (H, W + 1, 3): the scaled image with its first column repeated, cell_pdf (H - 1, W): each cell's
-probability, row_cdf (H,), col_cdf (H - 1, W + 1): per row the cdf of its cells, to_local (3, 3), to_world (3, 3));
-a scene without a map passes the same arrays empty (H = 0)."""
+probability, row_cdf (H,), col_cdf (H - 1, W + 1): per row the cdf of its cells, to_local (3, 3), to_world (3, 3),
+row_guide (GUIDE + 1,), col_guide (H - 1, GUIDE + 1): where each cdf's search starts, guide_of); a scene without a
+map passes the same arrays empty (H = 0)."""
 
 from __future__ import annotations
 
 import math
 
 import numba as nb
+import numpy as np
 
 from ..common import JIT
+
+GUIDE = 64  # buckets of a cdf's guide table (a power of two: u * GUIDE is exact)
 
 
 @nb.njit(**JIT, inline="always")
@@ -104,6 +108,34 @@ def _last_at_most(cdf, n, u):
     return lo
 
 
+@nb.njit(**JIT, inline="always")
+def _guided(cdf, guide, n, u):
+    """_last_at_most(cdf, n, u) for u in [0, 1), the bisection started in the bucket of u: the answer lies between
+    the answers for the bucket's two ends, guide[g] and guide[g + 1] (guide_of), so the same index is found in a
+    few steps within a cache line or two of the cdf instead of ~log2(n) steps across it, each a likely cache miss
+    (museum.exr, 512 x 256: envmap_sample 261 -> 233 ns, medians of 5 alternating processes, loaded machine)."""
+    g = min(int(u * GUIDE), GUIDE - 1)
+    lo, hi = guide[g], min(guide[g + 1] + 1, n)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if cdf[mid] <= u:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def guide_of(cdf: np.ndarray, n: int) -> np.ndarray:
+    """The guide table of a cdf's first n entries (cdf[0] = 0, non-decreasing), or of each row of a 2-D cdf:
+    entry g = _last_at_most(cdf, n, g / GUIDE) for g = 0..GUIDE (int32)."""
+    ends = np.arange(GUIDE + 1) / GUIDE
+    rows = np.atleast_2d(cdf)[:, :n]
+    out = np.empty((len(rows), GUIDE + 1), np.int32)
+    for k, row in enumerate(rows):
+        out[k] = np.searchsorted(row, ends, side="right") - 1
+    return out[0] if cdf.ndim == 1 else out
+
+
 @nb.njit(**JIT)
 def envmap_sample(env, u0, u1):
     """A direction drawn with density envmap_pdf from (u0, u1) in [0, 1)^2: the row by u0, the cell in it by u1,
@@ -112,9 +144,9 @@ def envmap_sample(env, u0, u1):
     up to rounding, without mapping it back)."""
     grid, row_cdf, col_cdf, to_world = env[0], env[2], env[3], env[5]
     h, w = grid.shape[0], grid.shape[1] - 1
-    j = _last_at_most(row_cdf, h - 1, u0)
+    j = _guided(row_cdf, env[6], h - 1, u0)
     v = (u0 - row_cdf[j]) / max(row_cdf[j + 1] - row_cdf[j], 1e-300)
-    i = _last_at_most(col_cdf[j], w, u1)
+    i = _guided(col_cdf[j], env[7][j], w, u1)
     u = (u1 - col_cdf[j, i]) / max(col_cdf[j, i + 1] - col_cdf[j, i], 1e-300)
     x, y = i + min(max(u, 0.0), 1.0), j + min(max(v, 0.0), 1.0)
     theta, phi = y / (h - 1) * math.pi, (x + 0.5) / w * 2 * math.pi

@@ -9,7 +9,7 @@ path's light is added in the same order (its emission found, then its shadow ray
 Numba's on-disk cache of trace_bounce is keyed on this file alone, as bounce.py's is on that one, not on the
 shading they inline: after a change there, delete __pycache__ or touch this file (last: area lights' textured
 radiance; the normal and bump maps' MAP_* columns and shading_frame's side normal; kernels/bvh/single.py's walks:
-the unsigned ordered stack and the child codes by selects)."""
+the unsigned ordered stack and the child codes by selects; the environment map's guided cdf search)."""
 
 from __future__ import annotations
 
