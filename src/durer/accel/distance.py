@@ -24,7 +24,7 @@ import numpy as np
 from ..kernels.bvh.layout import HI_X, LO_X, NODE_FLOATS, WIDTH
 from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.points.closest import closest_points_instances
-from ..kernels.points.crossing_packets import ray_windings
+from ..kernels.points.crossing_packets import outside_bounds, ray_windings
 from ..kernels.points.order import grid_bits, sort_by_cell
 from ..kernels.points.winding import (
     FAR_AREA,
@@ -365,28 +365,39 @@ class DistanceIndex:
         caps = None if self.closed else self.caps
         if not self.closed and caps is None:
             return np.abs(self.winding_numbers(points, beta, want_err=False)[0]) > 0.5
-        if self.closed:  # outside the scene's box the winding number is 0: those points are neither sorted nor walked
-            ordered, perm = cell_order(points, self.scene_box(None))
-        else:
-            ordered, perm = cell_order(points)
-        n = len(ordered)
-        if not n:
-            return np.zeros(len(points), np.bool_)
+        # outside the scene's box the count is 0: those points are neither sorted nor walked
+        box = self.scene_box(caps)
+        ordered, perm = cell_order(points, box)
         w, unsure, bound = self._ray_windings(ordered, caps)
+        out = np.zeros(len(points), np.bool_)
         if caps is not None:
             # far from the caps |w_cap| < 1/2, so an integer count k decides alone: |k - w_cap| > 1/2 iff k != 0
             near = np.flatnonzero(~unsure & ((bound >= 0.5 - CAP_MARGIN) | (w != np.round(w))))
+            # outside the box k = 0, and only the caps' winding number can put a point inside: its bound, unsorted
+            out_bound = np.empty(len(points))
+            if len(points):
+                run_blocks(outside_bounds, len(points), points, *box, caps.root_lanes(), out_bound)
+            far = np.flatnonzero(out_bound >= 0.5 - CAP_MARGIN)
+            pts = np.concatenate([ordered[near], points[far]])
+            k = np.concatenate([w[near], np.zeros(len(far))])
             # the same bound from the lanes a level down (16 for 4) where the root lanes' left |w_cap| open: the
             # bunny's near points 56k -> 23k, so the caps' far field runs on 0.4x the points
-            deep = np.empty(len(near))
-            lane_bounds(caps.root_lanes(CAP_BOUND_LEVELS), ordered[near], deep)
-            near = near[(deep >= 0.5 - CAP_MARGIN) | (w[near] != np.round(w[near]))]
-            w_cap = self._cap_windings(caps, ordered[near], w[near])
-            w[near] -= w_cap
-            unsure[near] |= np.abs(np.abs(w[near]) - 0.5) <= CAP_MARGIN
+            deep = np.empty(len(pts))
+            lane_bounds(caps.root_lanes(CAP_BOUND_LEVELS), pts, deep)
+            open_ = np.flatnonzero((deep >= 0.5 - CAP_MARGIN) | (k != np.round(k)))
+            k[open_] -= self._cap_windings(caps, pts[open_], k[open_])
+            sure = np.abs(np.abs(k[open_]) - 0.5) > CAP_MARGIN
+            if not sure.all():  # |w| within CAP_MARGIN of 1/2: the winding rule
+                rule = open_[~sure]
+                k[rule] = self._windings(pts[rule], beta, DEFAULT_ORDER, False)[0]
+            walked = open_[open_ < len(near)]
+            w[near[walked]] = k[walked]
+            out[far] = np.abs(k[len(near):]) > 0.5
         if unsure.any():
             w[unsure] = self._windings(ordered[unsure], beta, DEFAULT_ORDER, False)[0]
-        return restore_order(perm, np.abs(w) > 0.5, n=len(points))[0]
+        if len(ordered):
+            out[perm] = np.abs(w) > 0.5
+        return out
 
     @staticmethod
     def _cap_windings(caps: DistanceIndex, points: np.ndarray, crossings: np.ndarray) -> np.ndarray:

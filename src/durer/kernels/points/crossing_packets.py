@@ -253,3 +253,15 @@ def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_r
                 bound[i] = lane_bound(cap_lanes, o16[r, 0], o16[r, 1], o16[r, 2])
             w_out[i] = w[r]
             unsure[i] = bad[r]
+
+
+@nb.njit(**JIT)
+def outside_bounds(points, box_lo, box_hi, lanes, out, blk0, blk1):
+    """out[i] = winding.lane_bound(lanes, point i) for each point outside the box box_lo..box_hi (blocks
+    blk0..blk1), -1 for a point inside it. An open mesh's inside test (accel/distance.py) sorts and walks only the
+    points inside the scene's box, whose count outside is 0: there only the caps' winding number can put a point
+    inside, and this bound says where it must be computed."""
+    n = points.shape[0]
+    for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        out[i] = lane_bound(lanes, px, py, pz) if outside_box(px, py, pz, box_lo, box_hi) else -1.0
