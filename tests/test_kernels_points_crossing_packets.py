@@ -14,7 +14,7 @@ from durer import RaycastingScene
 from durer.accel.distance import cell_order
 from durer.kernels.bvh.chunks import packet_rows, packet_setup
 from durer.kernels.bvh.layout import PACKET
-from durer.kernels.points.crossing_packets import packet_crossings
+from durer.kernels.points.crossing_packets import misses_box, packet_crossings
 from durer.kernels.points.crossings import signed_crossings
 
 
@@ -157,3 +157,35 @@ def test_points_outside_the_box_count_zero_unwalked(holes):
     np.testing.assert_array_equal(bound, bound0)
     exact = np.abs(index.winding_numbers(points, np.inf, want_err=False)[0]) > 0.5
     np.testing.assert_array_equal(s.compute_occupancy(points) > 0.5, exact)
+
+
+_coord = st.floats(-4.0, 4.0, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(p=st.tuples(_coord, _coord, _coord), d=st.tuples(_coord, _coord, _coord),
+       lo=st.tuples(_coord, _coord, _coord), size=st.tuples(*[st.floats(0.0, 3.0)] * 3),
+       zero=st.sampled_from([None, 0, 1, 2]))
+def test_misses_box_agrees_with_points_along_the_ray(p, d, lo, size, zero):
+    """crossing_packets.misses_box (the caps' skip): a ray said to enter the box has a point of t >= 0 in it (the
+    middle of its slab interval); a ray said to miss it has none among 20,001 points up to past the box's far
+    corner, nor its origin (axes with d = 0 drawn too)."""
+    p, d, lo = np.array(p), np.array(d), np.array(lo)
+    if zero is not None:
+        d[zero] = 0.0
+    hi = lo + np.array(size)
+    if not np.any(d):
+        d[0] = 1.0
+    missed = misses_box(*p, *d, lo, hi)
+    tol = 1e-9 * (1.0 + np.abs(p).max() + np.abs(hi).max())
+    if not missed:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ta, tb = (lo - p) / d, (hi - p) / d
+        t0 = np.max(np.where(d != 0.0, np.minimum(ta, tb), -np.inf), initial=0.0)
+        t1 = np.min(np.where(d != 0.0, np.maximum(ta, tb), np.inf))
+        q = p + d * (0.5 * (t0 + t1) if np.isfinite(t1) else t0)
+        assert np.all(q >= lo - tol) and np.all(q <= hi + tol)
+    else:
+        far = (np.linalg.norm(p) + np.linalg.norm(hi - lo) + np.linalg.norm(lo) + 1.0) / np.linalg.norm(d) * 2.0
+        q = p + np.linspace(0.0, far, 20001)[:, None] * d
+        assert not np.any(np.all((q > lo + tol) & (q < hi - tol), axis=1))

@@ -24,7 +24,7 @@ import numpy as np
 from ..kernels.bvh.layout import HI_X, LO_X, NODE_FLOATS, WIDTH
 from ..kernels.common import MISS, SPHERE, TRIANGLE
 from ..kernels.points.closest import closest_points_instances
-from ..kernels.points.crossing_packets import ray_windings
+from ..kernels.points.crossing_packets import outside_bounds, ray_windings
 from ..kernels.points.order import grid_bits, sort_by_cell
 from ..kernels.points.winding import (
     FAR_AREA,
@@ -50,9 +50,9 @@ SIMILARITY_RTOL = 1e-9  # A^T A = s^2 I within this relative tolerance counts as
 RAY_TILT = np.array([0.28, -0.43, 0.61])  # added to each point's outward direction: no ray along an axis or a grid
 # the caps' winding number (accel/caps.py) where a point needs it: far fields (beta, order) whose error bounds decide
 # where each is trusted, then the cap's triangles summed exactly. Bunny, 59k points near its caps: (2, 1) leaves
-# 10k undecided in 64 ms where (2, 2) left 14k in 67 ms; (4, 2) on those leaves ~40 (summed exactly), where summing
-# all 14k exactly took 220 ms
-CAP_STEPS = ((2.0, 1), (4.0, 2), (np.inf, 2))
+# 10k undecided in 64 ms where (2, 2) left 14k in 67 ms; on the 23k its lanes' bounds leave, (2, 1) leaves 8.2k, then
+# (2.5, 1) 426 and (4, 1) 82 to sum exactly: 27.5 ms one thread CPU, where (4, 2) on the 8.2k took 34.9 ms
+CAP_STEPS = ((2.0, 1), (2.5, 1), (4.0, 1), (np.inf, 2))
 CAP_MARGIN = 1e-9  # |w| this close to 1/2 (rounding of the sums) takes the winding rule
 CAP_MAX_SHARE = 0.5  # a mesh whose cap would have more triangles than this share of its own keeps the winding rule
 # the inside test's rays go as packets of 16 (kernels/points/crossing_packets.py) where their origins spread at most
@@ -331,7 +331,8 @@ class DistanceIndex:
         (kernels/points/crossing_packets.ray_windings), in the given order; the ray leaves along RAY_TILT plus the
         unit direction from the scene's middle to the point; packets of them where their origins spread at most
         `spread` (default packet_spread(): 0 walks every ray alone, inf every coherent packet as one); points outside
-        the scene's box grown by BOX_MARGIN count 0, unwalked, unless skip_outside is False."""
+        the scene's box grown by BOX_MARGIN count 0, unwalked, and rays missing a cap instance's box grown as much
+        do not walk its tree, unless skip_outside is False."""
         p = self.tree.packed
         n = len(points)
         w, unsure, bound = np.empty(n), np.zeros(n, np.bool_), np.zeros(n)
@@ -341,18 +342,24 @@ class DistanceIndex:
         if caps is None:  # the meshes' own arrays with no rows: the same types, so one compiled kernel
             cap_args = (p.top.inst_root[:0], p.w2o[:0], self.sign[:0], self.inst_sphere[:0],
                         *(a[:0] for a in p.blas), p.stack)
-            lanes = np.zeros((0, 5))
+            lanes, cap_lo, cap_hi = np.zeros((0, 5)), np.zeros((0, 3)), np.zeros((0, 3))
         else:
             c = caps.tree.packed
             cap_args = (c.top.inst_root, c.w2o, caps.sign, caps.inst_sphere, *c.blas, c.stack)
             lanes = caps.root_lanes()
+            cap_lo, cap_hi = caps.tree._inst_lo, caps.tree._inst_hi
+            margin = BOX_MARGIN * (np.abs(cap_hi - cap_lo).max(axis=1, initial=0.0)
+                                   + np.abs(np.concatenate([cap_lo, cap_hi], axis=1)).max(axis=1, initial=0.0))
+            cap_lo, cap_hi = cap_lo - margin[:, None], cap_hi + margin[:, None]
+            if not skip_outside:
+                cap_lo, cap_hi = cap_lo - np.inf, cap_hi + np.inf
         if spread is None:
             if getattr(self, "_packet_spread", None) is None:  # indexes pickled before the field existed lack it
                 self._packet_spread = self.packet_spread()
             spread = self._packet_spread
         run_blocks(ray_windings, n, points, RAY_TILT, (lo + hi) / 2, box_lo, box_hi, t_eps, float(spread),
-                   p.top.inst_root, p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, w, unsure,
-                   bound)
+                   p.top.inst_root, p.w2o, self.sign, self.inst_sphere, *p.blas, p.stack, cap_args, lanes, cap_lo,
+                   cap_hi, w, unsure, bound)
         return w, unsure, bound
 
     def inside(self, points: np.ndarray, beta: float) -> np.ndarray:
@@ -365,28 +372,39 @@ class DistanceIndex:
         caps = None if self.closed else self.caps
         if not self.closed and caps is None:
             return np.abs(self.winding_numbers(points, beta, want_err=False)[0]) > 0.5
-        if self.closed:  # outside the scene's box the winding number is 0: those points are neither sorted nor walked
-            ordered, perm = cell_order(points, self.scene_box(None))
-        else:
-            ordered, perm = cell_order(points)
-        n = len(ordered)
-        if not n:
-            return np.zeros(len(points), np.bool_)
+        # outside the scene's box the count is 0: those points are neither sorted nor walked
+        box = self.scene_box(caps)
+        ordered, perm = cell_order(points, box)
         w, unsure, bound = self._ray_windings(ordered, caps)
+        out = np.zeros(len(points), np.bool_)
         if caps is not None:
             # far from the caps |w_cap| < 1/2, so an integer count k decides alone: |k - w_cap| > 1/2 iff k != 0
             near = np.flatnonzero(~unsure & ((bound >= 0.5 - CAP_MARGIN) | (w != np.round(w))))
+            # outside the box k = 0, and only the caps' winding number can put a point inside: its bound, unsorted
+            out_bound = np.empty(len(points))
+            if len(points):
+                run_blocks(outside_bounds, len(points), points, *box, caps.root_lanes(), out_bound)
+            far = np.flatnonzero(out_bound >= 0.5 - CAP_MARGIN)
+            pts = np.concatenate([ordered[near], points[far]])
+            k = np.concatenate([w[near], np.zeros(len(far))])
             # the same bound from the lanes a level down (16 for 4) where the root lanes' left |w_cap| open: the
             # bunny's near points 56k -> 23k, so the caps' far field runs on 0.4x the points
-            deep = np.empty(len(near))
-            lane_bounds(caps.root_lanes(CAP_BOUND_LEVELS), ordered[near], deep)
-            near = near[(deep >= 0.5 - CAP_MARGIN) | (w[near] != np.round(w[near]))]
-            w_cap = self._cap_windings(caps, ordered[near], w[near])
-            w[near] -= w_cap
-            unsure[near] |= np.abs(np.abs(w[near]) - 0.5) <= CAP_MARGIN
+            deep = np.empty(len(pts))
+            lane_bounds(caps.root_lanes(CAP_BOUND_LEVELS), pts, deep)
+            open_ = np.flatnonzero((deep >= 0.5 - CAP_MARGIN) | (k != np.round(k)))
+            k[open_] -= self._cap_windings(caps, pts[open_], k[open_])
+            sure = np.abs(np.abs(k[open_]) - 0.5) > CAP_MARGIN
+            if not sure.all():  # |w| within CAP_MARGIN of 1/2: the winding rule
+                rule = open_[~sure]
+                k[rule] = self._windings(pts[rule], beta, DEFAULT_ORDER, False)[0]
+            walked = open_[open_ < len(near)]
+            w[near[walked]] = k[walked]
+            out[far] = np.abs(k[len(near):]) > 0.5
         if unsure.any():
             w[unsure] = self._windings(ordered[unsure], beta, DEFAULT_ORDER, False)[0]
-        return restore_order(perm, np.abs(w) > 0.5, n=len(points))[0]
+        if len(ordered):
+            out[perm] = np.abs(w) > 0.5
+        return out
 
     @staticmethod
     def _cap_windings(caps: DistanceIndex, points: np.ndarray, crossings: np.ndarray) -> np.ndarray:

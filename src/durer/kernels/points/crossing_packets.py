@@ -26,7 +26,7 @@ from ..common import JIT
 from ..intersect import edge_tie
 from .closest import POINTS_PER_BLOCK
 from .crossings import EDGE_MARGIN, GRAZE, signed_crossings
-from .winding import away_from, lane_bound, object_point, sphere_winding
+from .winding import away_from, ball_bound, lane_bound, object_point, sphere_winding
 
 
 @nb.njit(**JIT, inline="always")
@@ -172,9 +172,41 @@ def _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim,
 
 
 @nb.njit(**JIT, inline="always")
+def _chunk_bounds(lanes, o16, m, bad, bound, i0):
+    """bound[i0 + r] = a bound on the caps' |w| at each of the chunk's m points o16 that is not bad: the bound of
+    the ball around their box (winding.ball_bound) for all of them where it is below 1/2 (only that side of 1/2
+    is used), else each point's own lane_bound. Points far from the caps (most) then pay one sum a chunk."""
+    lo0, lo1, lo2, hi0, hi1, hi2 = np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf
+    for r in range(m):
+        lo0, lo1, lo2 = min(lo0, o16[r, 0]), min(lo1, o16[r, 1]), min(lo2, o16[r, 2])
+        hi0, hi1, hi2 = max(hi0, o16[r, 0]), max(hi1, o16[r, 1]), max(hi2, o16[r, 2])
+    h0, h1, h2 = (hi0 - lo0) * 0.5, (hi1 - lo1) * 0.5, (hi2 - lo2) * 0.5
+    b = ball_bound(lanes, lo0 + h0, lo1 + h1, lo2 + h2, np.sqrt(h0 * h0 + h1 * h1 + h2 * h2) * (1.0 + 1e-12))
+    for r in range(m):
+        if not bad[r]:
+            bound[i0 + r] = b if b < 0.5 else lane_bound(lanes, o16[r, 0], o16[r, 1], o16[r, 2])
+
+
+@nb.njit(**JIT, inline="always")
 def outside_box(px, py, pz, lo, hi):
     """Whether the point lies outside the box lo..hi."""
     return px < lo[0] or px > hi[0] or py < lo[1] or py > hi[1] or pz < lo[2] or pz > hi[2]
+
+
+@nb.njit(**JIT, inline="always")
+def misses_box(px, py, pz, dx, dy, dz, lo, hi):
+    """Whether the ray from p along d (t >= 0) misses the box lo..hi: the slab test, an axis with d = 0 missed
+    when p is outside its slab."""
+    t0, t1 = 0.0, np.inf
+    for a in range(3):
+        p, d = (px, py, pz)[a], (dx, dy, dz)[a]
+        if d == 0.0:
+            if p < lo[a] or p > hi[a]:
+                return True
+            continue
+        ta, tb = (lo[a] - p) / d, (hi[a] - p) / d
+        t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
+    return t0 > t1
 
 
 @nb.njit(**JIT, inline="always")
@@ -190,7 +222,7 @@ def _same_matrix(a, b):
 @nb.njit(**JIT)
 def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_root, inst_w2o, inst_sign, inst_sphere,
                  bounds, child, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, stack_size, caps, cap_lanes,
-                 w_out, unsure, bound, blk0, blk1):
+                 cap_lo, cap_hi, w_out, unsure, bound, blk0, blk1):
     """w_out[i] = the winding number of point i (blocks blk0..blk1) over all instances: for a mesh instance the
     signed count of one ray's crossings (along tilt + the unit direction from `center` to the point, moved into
     the instance's object space, times the instance's inst_sign), for a sphere instance 1 inside, 1/2 on the
@@ -198,6 +230,8 @@ def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_r
     (crossings.py's docstring): w_out[i] is then not to be used. `caps`, a second tree's arguments in the same
     order (inst_root .. sph_w2o, then its stack size; no instances: none), is crossed by the same ray and its
     count added (accel/caps.py), and bound[i] = winding.lane_bound's bound on its winding number from cap_lanes.
+    A ray that misses cap instance k's world box cap_lo[k]..cap_hi[k] (grown by more than any rounding) is not
+    walked in its tree: most rays miss the caps, and their setup and root test cost more than the slab test.
     Every mesh instance of the two together must be closed and consistently oriented (the caller checks). Points
     go PACKET at a time (module docstring); max_spread is the origins' largest spread a packet may have. Points
     outside the box box_lo..box_hi (around every instance of both trees, grown by more than any rounding) are not
@@ -212,6 +246,7 @@ def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_r
     o16, d16 = np.empty((PACKET, 3)), np.empty((PACKET, 3))
     t0, t1, idx = np.zeros(PACKET), np.full(PACKET, np.inf), np.arange(PACKET)
     signed, w, bad, gone = np.empty(PACKET), np.empty(PACKET), np.empty(PACKET, np.bool_), np.empty(PACKET, np.bool_)
+    miss = np.empty(PACKET, np.bool_)
     nan_matrix = np.full((3, 4), np.nan)  # equal to no matrix
     for i0 in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK), PACKET):
         m = min(n, i0 + PACKET) - i0
@@ -228,9 +263,9 @@ def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_r
             gone[r] = outside_box(o16[r, 0], o16[r, 1], o16[r, 2], box_lo, box_hi)
             outside &= gone[r]
         if outside:
+            if c_root.shape[0] > 0:
+                _chunk_bounds(cap_lanes, o16, m, bad, bound, i0)
             for r in range(m):
-                if c_root.shape[0] > 0:
-                    bound[i0 + r] = lane_bound(cap_lanes, o16[r, 0], o16[r, 1], o16[r, 2])
                 w_out[i0 + r] = 0.0
                 unsure[i0 + r] = False
             continue
@@ -246,12 +281,29 @@ def ray_windings(points, tilt, center, box_lo, box_hi, t_eps, max_spread, inst_r
                 continue
             moved = _mesh_crossings(k, inst_w2o, inst_root, inst_sign, bounds, child, leaf_prim, leaf_tri, i0, points,
                                     rx, ry, rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad, gone)
-        for k in range(c_root.shape[0]):  # the caps (meshes only), as above
-            moved = _mesh_crossings(k, c_w2o, c_root, c_sign, c_bounds, c_child, c_prim, c_tri, i0, points, rx, ry,
-                                    rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad, gone)
+        for k in range(c_root.shape[0]):  # the caps (meshes only), as above, but only the rays entering their box
+            walk = False
+            for r in range(m):
+                miss[r] = gone[r] or bad[r] or misses_box(o16[r, 0], o16[r, 1], o16[r, 2], d16[r, 0], d16[r, 1],
+                                                          d16[r, 2], cap_lo[k], cap_hi[k])
+                walk |= not miss[r]
+            if walk:
+                moved = _mesh_crossings(k, c_w2o, c_root, c_sign, c_bounds, c_child, c_prim, c_tri, i0, points, rx, ry,
+                                        rz, packet, rr, ro, moved, t_eps, stack, key, order, signed, w, bad, miss)
+        if c_root.shape[0] > 0:
+            _chunk_bounds(cap_lanes, o16, m, bad, bound, i0)
         for r in range(m):
-            i = i0 + r
-            if not bad[r] and c_root.shape[0] > 0:
-                bound[i] = lane_bound(cap_lanes, o16[r, 0], o16[r, 1], o16[r, 2])
-            w_out[i] = w[r]
-            unsure[i] = bad[r]
+            w_out[i0 + r] = w[r]
+            unsure[i0 + r] = bad[r]
+
+
+@nb.njit(**JIT)
+def outside_bounds(points, box_lo, box_hi, lanes, out, blk0, blk1):
+    """out[i] = winding.lane_bound(lanes, point i) for each point outside the box box_lo..box_hi (blocks
+    blk0..blk1), -1 for a point inside it. An open mesh's inside test (accel/distance.py) sorts and walks only the
+    points inside the scene's box, whose count outside is 0: there only the caps' winding number can put a point
+    inside, and this bound says where it must be computed."""
+    n = points.shape[0]
+    for i in range(blk0 * POINTS_PER_BLOCK, min(n, blk1 * POINTS_PER_BLOCK)):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        out[i] = lane_bound(lanes, px, py, pz) if outside_box(px, py, pz, box_lo, box_hi) else -1.0
