@@ -15,7 +15,10 @@ Rows, one process, one thread, CPU time of the thread, every variant in each rou
 round), medians of the per-round ratios to the first row of its group; results checked equal to the bit:
   * closest: single.blas_closest (A), a triangles-only copy of its walk with the scalar leaf loop (control), the
     same walk with tri4 leaves (B);
-  * count: queued.blas_count (A), its copy (control), the copy with tri4 leaves (B).
+  * count: queued.blas_count as it was before session 19 (A, a verbatim copy), queued.blas_count (its leaves
+    through leaf4.count_hits4 since session 19: the tri4g form), the copy without spheres (control, not inlined
+    the same way: it measured 1.26x A), the copy with tri4 leaves, the copy with tri4g leaves.
+A third form, tri4g, gathers the 4 lanes from the leaves' own flat array (leaf4.triangles4: no copy of the leaves).
 Also the visits per ray (nodes, leaves, triangle slots) of the closest and the count walk on the same rays, which
 is the count-against-closest profile of the section in benchmarks/README.md.
 Mesh: the Stanford bunny (Stanford Computer Graphics Laboratory) from ../shared/meshes.
@@ -40,7 +43,7 @@ from durer.kernels.bvh.queued import QUEUE_FIFO, blas_count, queue_start, ring_f
 from durer.kernels.bvh.simd import _F64x4, _prefetch_bytes, _splat
 from durer.kernels.bvh.single import node_dists4, prefetch_children, push_nearest_first, ray_setup
 from durer.kernels.common import MISS, TRIANGLE
-from durer.kernels.intersect import watertight_triangle
+from durer.kernels.intersect import sphere_hit_in_object_space, watertight_triangle
 
 _JIT = dict(error_model="numpy", nogil=True)
 _U0, _U1, _U40 = np.uint64(0), np.uint64(1), np.uint64(40)
@@ -191,21 +194,21 @@ def make_blocks(child: np.ndarray, leaf_prim: np.ndarray, leaf_tri: np.ndarray):
     ids = view[:, 36:40].view(np.int32)
     view[:, :36] = np.nan
     ids[:] = -1
+    nb_leaf = (count + 3) // 4
+    k0 = np.concatenate([[0], np.cumsum(nb_leaf)[:-1]])  # each leaf's first block
+    new_codes = np.array([leaf_code(int(k), int(c)) for k, c in zip(k0, count, strict=True)], child.dtype)
+    leaf_of = np.repeat(np.arange(len(count)), count)   # per item: its leaf, its index in the leaf
+    j = np.arange(len(leaf_of)) - np.repeat(np.cumsum(count) - count, count)
+    blk, lane = k0[leaf_of] + j // 4, j % 4
+    slot = first[leaf_of] + j
+    tri = leaf_tri.reshape(-1, 9)
+    for vert in range(3):
+        for ax in range(3):
+            view[blk, 12 * vert + 4 * ax + lane] = tri[slot, 3 * vert + ax]
+    ids[blk, lane] = leaf_prim[slot]
     slot_of = np.empty(nblk, np.int64)
-    tri = leaf_tri.reshape(-1, 3, 3)
-    new_codes = np.empty_like(codes)
-    k = 0
-    for i, (f, c) in enumerate(zip(first.tolist(), count.tolist())):
-        new_codes[i] = leaf_code(k, c)
-        for j in range(c):
-            blk, lane = k + j // 4, j % 4
-            for vert in range(3):
-                for ax in range(3):
-                    view[blk, 12 * vert + 4 * ax + lane] = tri[f + j, vert, ax]
-            ids[blk, lane] = leaf_prim[f + j]
-        for j in range((c + 3) // 4):
-            slot_of[k + j] = f + 4 * j
-        k += (c + 3) // 4
+    bl = np.repeat(k0, nb_leaf) + (np.arange(nblk) - np.repeat(np.cumsum(nb_leaf) - nb_leaf, nb_leaf))
+    slot_of[bl] = np.repeat(first, nb_leaf) + 4 * (np.arange(nblk) - np.repeat(np.cumsum(nb_leaf) - nb_leaf, nb_leaf))
     child4 = child.copy()
     child4[child < 0] = new_codes
     return child4, blocks, slot_of
@@ -393,6 +396,63 @@ def make_count(use_blocks: bool, gather: bool = False):
     return walk, run
 
 
+@nb.njit(**_JIT, inline="always")
+def blas_count_before(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius, sph_w2o, ox, oy, oz, dx, dy,
+                      dz, t_min, t_max, ring):
+    """queued.blas_count as it was before session 19 (every leaf slot through the scalar test), verbatim."""
+    idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
+    mask = np.uint64(ring.shape[0] - 1)
+    one = np.uint64(1)
+    head, tail = queue_start(ring, root)
+    n = 0
+    while head != tail:
+        if tail - head > np.uint64(QUEUE_FIFO):  # long queue: depth first from its newest end
+            tail -= one
+            node = ring[tail & mask]
+        else:
+            node = ring[head & mask]
+            head += one
+        if node >= 0:
+            prefetch_children(bounds, leaf_tri, child, node)
+            d0, d1, d2, d3 = node_dists4(bounds, node, nrx, nry, nrz, ox, oy, oz, idx, idy, idz, t_min, t_max)
+            ring[tail & mask] = child[node, 0]
+            tail += np.uint64(d0 < np.inf)
+            ring[tail & mask] = child[node, 1]
+            tail += np.uint64(d1 < np.inf)
+            ring[tail & mask] = child[node, 2]
+            tail += np.uint64(d2 < np.inf)
+            ring[tail & mask] = child[node, 3]
+            tail += np.uint64(d3 < np.inf)
+            continue
+        first, end = leaf_range(node)
+        for j in range(first, end):
+            p = leaf_prim[j]
+            if p >= 0:
+                t, _, _ = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, t_min, t_max)
+                n += np.int64(t < np.inf)
+                continue
+            s = -p - 1
+            lo = t_min
+            for _ in range(2):
+                t = sphere_hit_in_object_space((ox, oy, oz), (dx, dy, dz), sph_center[s], sph_radius[s], sph_w2o[s],
+                                               lo, t_max)
+                if t == np.inf:
+                    break
+                n += 1
+                lo = t
+    return n
+
+
+@nb.njit(**_JIT)
+def run_count_before(bounds, child, leaf_prim, leaf_tri, o, d, stack_size, out):
+    """blas_count_before over the batch, as run_count_a."""
+    ring = ring_for(stack_size)
+    e3, e1, e34 = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3, 4))
+    for i in range(o.shape[0]):
+        out[i] = blas_count_before(bounds, child, np.int32(0), leaf_prim, leaf_tri, e3, e1, e34, o[i, 0], o[i, 1],
+                                   o[i, 2], d[i, 0], d[i, 1], d[i, 2], 0.0, np.inf, ring)
+
+
 @nb.njit(**_JIT)
 def run_count_a(bounds, child, leaf_prim, leaf_tri, o, d, stack_size, out):
     """queued.blas_count over the batch, as count_intersections' one-ray path calls it."""
@@ -409,6 +469,7 @@ def main() -> None:
     ap.add_argument("--rays", type=int, default=262_144)
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--asm", action="store_true", help="print the vector instructions of the tri4 closest walk")
+    ap.add_argument("--only", choices=["closest", "count"], help="one group of rows")
     a = ap.parse_args()
     mesh = load_mesh(SHARED / "meshes", a.mesh)
     o, d = random_rays(mesh, a.rays)
@@ -431,12 +492,15 @@ def main() -> None:
             "copy, tri4 leaves": lambda out: run_b(b, child4, lp, lt, blocks, slot_of, o, d, ss, out),
             "copy, tri4 gathered": lambda out: run_g(b, child, lp, lt, blocks, slot_of, o, d, ss, out)}),
         "count": (None, np.int64, {
+            "blas_count before (copy)": lambda out: run_count_before(b, child, lp, lt, o, d, ss, out),
             "queued.blas_count": lambda out: run_count_a(b, child, lp, lt, o, d, ss, out),
             "copy, scalar leaves": lambda out: cnt_c(b, child, lp, lt, blocks, slot_of, o, d, ss, out),
             "copy, tri4 leaves": lambda out: cnt_b(b, child4, lp, lt, blocks, slot_of, o, d, ss, out),
             "copy, tri4 gathered": lambda out: cnt_g(b, child, lp, lt, blocks, slot_of, o, d, ss, out)}),
     }
     for name, (cols, dtype, variants) in groups.items():
+        if a.only and name != a.only:
+            continue
         outs = {k: np.empty((len(o), cols) if cols else len(o), dtype) for k in variants}
         for k, fn in variants.items():
             fn(outs[k])
@@ -444,7 +508,7 @@ def main() -> None:
         times = {k: [] for k in variants}
         for r in range(a.rounds):
             for k in (list(variants) if r % 2 == 0 else list(variants)[::-1]):
-                times[k].append(timed(lambda k=k: variants[k](outs[k])))
+                times[k].append(timed(lambda fn=variants[k], out=outs[k]: fn(out)))
         for k in variants:
             same = np.array_equal(outs[k].view(np.int64), outs[first].view(np.int64))
             ratio = np.median(np.array(times[k]) / np.array(times[first]))

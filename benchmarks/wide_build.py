@@ -26,12 +26,11 @@ import numpy as np
 from raycases import SHARED, load_mesh, random_rays
 from walk_variants import timed
 
-from durer.kernels.bvh.items import item_boxes
 from durer.kernels.bvh.build import TRAVERSAL_COST, build_bvh2, collapse_bvh4
+from durer.kernels.bvh.items import item_boxes
 from durer.kernels.bvh.layout import MAX_LEAF, leaf_code, leaf_range, stack_size_for
 from durer.kernels.bvh.queued import QUEUE_FIFO, queue_start, ring_for
 from durer.kernels.bvh.single import node_dists4, prefetch_children, push_nearest_first, ray_setup
-from durer.kernels.common import MISS, TRIANGLE
 from durer.kernels.intersect import watertight_triangle
 
 _JIT = dict(error_model="numpy", nogil=True)
@@ -130,7 +129,8 @@ def sah_of(bounds, child):
     e = np.where(child[:, None, :] != 0, np.maximum(b[:, 3:] - b[:, :3], 0), 0)
     a = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
     root = b[0]
-    lo, hi = np.min(np.where(child[0] != 0, root[:3], np.inf), axis=1), np.max(np.where(child[0] != 0, root[3:], -np.inf), axis=1)
+    lo = np.min(np.where(child[0] != 0, root[:3], np.inf), axis=1)
+    hi = np.max(np.where(child[0] != 0, root[3:], -np.inf), axis=1)
     ea = hi - lo
     ra = ea[0] * ea[1] + ea[1] * ea[2] + ea[2] * ea[0]
     _, cnt = leaf_range_np(child)
@@ -151,7 +151,6 @@ def closest_counts(bounds, child, leaf_prim, leaf_tri, o, d, stack_size, out, st
     for i in range(o.shape[0]):
         ox, oy, oz, dx, dy, dz = o[i, 0], o[i, 1], o[i, 2], d[i, 0], d[i, 1], d[i, 2]
         best = np.inf
-        kind = MISS
         prim = -1
         idx, idy, idz, nrx, nry, nrz, kx, ky, kz, sx, sy, sz, okx, oky, okz = ray_setup(ox, oy, oz, dx, dy, dz)
         sp = _U0
@@ -172,7 +171,7 @@ def closest_counts(bounds, child, leaf_prim, leaf_tri, o, d, stack_size, out, st
                     stats[2] += 1
                     t, u, w = watertight_triangle(leaf_tri, j * 9, okx, oky, okz, kx, ky, kz, sx, sy, sz, 0.0, best)
                     if t < best:
-                        best, kind, prim = t, TRIANGLE, leaf_prim[j]
+                        best, prim = t, leaf_prim[j]
             node = 0
             while sp > _U0:
                 if stack_t[sp] <= best:
@@ -277,17 +276,17 @@ def main() -> None:
     z = np.zeros(3, np.int64)
     for r in range(a.rounds):
         for k in (list(runs) if r % 2 == 0 else list(runs)[::-1]):
-            bflat, child, ss, out, cnt = runs[k]
-            times[k][0].append(timed(lambda: closest_counts(bflat, child, leaf_prim, leaf_tri, o, d, ss, out, z)))
-            times[k][1].append(timed(lambda: count_counts(bflat, child, leaf_tri, o, d, ss, cnt, z)))
-    base = next(iter(runs))
+            bf, ch, ss, out, cnt = runs[k]
+            times[k][0].append(timed(lambda bf=bf, ch=ch, ss=ss, out=out: closest_counts(bf, ch, leaf_prim, leaf_tri,
+                                                                                          o, d, ss, out, z)))
+            times[k][1].append(timed(lambda bf=bf, ch=ch, ss=ss, cnt=cnt: count_counts(bf, ch, leaf_tri, o, d, ss,
+                                                                                        cnt, z)))
     ref_k = "greedy 4-wide (shipped)"
     for k in runs:
         rc = np.median(np.array(times[k][0]) / np.array(times[ref_k][0]))
         rn = np.median(np.array(times[k][1]) / np.array(times[ref_k][1]))
         print(f"{k:26s} closest {np.median(times[k][0]) / len(o) * 1e9:5.0f} ns/ray ({rc:.3f}x shipped)  count "
               f"{np.median(times[k][1]) / len(o) * 1e9:5.0f} ns/ray ({rn:.3f}x shipped)", flush=True)
-    del base
 
 
 if __name__ == "__main__":
