@@ -7,9 +7,10 @@ intersect.watertight_triangle's arithmetic at once: every lane does the scalar o
 (IEEE subtraction, multiplication, division; no fused multiply-add), so a lane's t, u, v are the scalar test's to
 the bit. A lane whose three edge functions have no mixed signs but include an exact 0 (a ray through an edge or a
 vertex, or an edge-on triangle) is not decided here: it is flagged, and the caller sends that triangle to the
-scalar test, whose tie-break and edge-on rule (intersect.edge_tie) stay the only ones. Measured in the count walk:
-0.93x its time on the bunny's incoherent rays (benchmarks/walk_leaf4.py, benchmarks/README.md); in the closest walk
-it did not pay (1.05x), so single.blas_closest keeps the scalar loop.
+scalar test, whose tie-break and edge-on rule (intersect.edge_tie) stay the only ones. Measured in the count walk
+on incoherent rays: 0.89x its time on the bunny, 0.82x on the 1.1M bunny, the same counts (benchmarks/walk_leaf4.py,
+benchmarks/README.md); in the closest walk it did not pay (1.05x: 2.1 leaves a ray, each culled by the best hit),
+so single.blas_closest keeps the scalar loop.
 """
 
 from __future__ import annotations
