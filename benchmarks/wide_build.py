@@ -127,7 +127,7 @@ def sah_of(bounds, child):
     """The wide tree's SAH cost per unit root area (a node visit TRAVERSAL_COST, a triangle 1)."""
     b = bounds.astype(np.float64)
     with np.errstate(invalid="ignore"):  # empty lanes: inf - inf
-            e = np.where(child[:, None, :] != 0, np.maximum(b[:, 3:] - b[:, :3], 0), 0)
+        e = np.where(child[:, None, :] != 0, np.maximum(b[:, 3:] - b[:, :3], 0), 0)
     a = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
     root = b[0]
     lo = np.min(np.where(child[0] != 0, root[:3], np.inf), axis=1)
