@@ -113,3 +113,17 @@ def test_lanes_equal_the_scalar_test_on_random_grazing_and_degenerate_triangles(
     leaf = tri.astype(np.float32) if narrow else tri
     _check(leaf, o, d)
     _check(leaf, o, d, t_min=0.5, t_max=1.5)
+
+
+def test_rays_in_a_triangles_plane_miss_it_as_in_the_scalar_test():
+    """Rays lying in a triangle's plane (up to rounding: through a point of one edge towards a point of another) give
+    edge functions that are rounding leftovers, which share a sign for some of them; the scalar test misses them by
+    intersect.edge_on's bound on the determinant, and so must every lane (the lanes equal the scalar test's)."""
+    rng = np.random.default_rng(7)
+    for _ in range(3000):
+        tri = rng.uniform(-1, 1, (4, 3, 3))
+        a, b = rng.random(2)
+        p = tri[0, 0] + a * (tri[0, 1] - tri[0, 0])
+        q = tri[0, 1] + b * (tri[0, 2] - tri[0, 1])
+        o = p - rng.uniform(0.5, 2) * (q - p)
+        _check(tri, o, q - o)

@@ -7,7 +7,8 @@ intersect.watertight_triangle's arithmetic at once: every lane does the scalar o
 (IEEE subtraction, multiplication, division; no fused multiply-add), so a lane's t, u, v are the scalar test's to
 the bit. A lane whose three edge functions have no mixed signs but include an exact 0 (a ray through an edge or a
 vertex, or an edge-on triangle) is not decided here: it is flagged, and the caller sends that triangle to the
-scalar test, whose tie-break and edge-on rule (intersect.edge_tie) stay the only ones. Measured in the count walk
+scalar test, whose tie-break (intersect.edge_tie) stays the only one; a determinant 0 up to its rounding bound
+(intersect.edge_on, the same operations in the same order) is a miss, as there. Measured in the count walk
 on incoherent rays: 0.89x its time on the bunny, 0.82x on the 1.1M bunny, the same counts (benchmarks/walk_leaf4.py,
 benchmarks/README.md); in the closest walk it did not pay (1.05x: 2.1 leaves a ray, each culled by the best hit),
 so single.blas_closest keeps the scalar loop.
@@ -23,7 +24,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from ..common import JIT
-from ..intersect import watertight_triangle
+from ..intersect import EDGE_ON, watertight_triangle
 from .simd import _F64x4, _splat
 
 _I32 = ir.IntType(32)
@@ -59,9 +60,27 @@ def _watertight4(context, builder, signature, at, okx, oky, okz, sx, sy, sz, t_m
     inside = builder.and_(valid, builder.not_(builder.and_(neg, pos)))  # no mixed signs
     tie = builder.and_(inside, on_edge)
     det = builder.fadd(builder.fadd(e0, e1), e2)
+    # intersect.edge_on, the same operations in the same order: det 0 up to its rounding bound is a miss
+    fabs = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_F64x4, [_F64x4]), "llvm.fabs.v4f64")
+
+    def mul_add(p, q, r, s_):
+        return builder.fadd(builder.fmul(p, q), builder.fmul(r, s_))
+
+    two = _splat(builder, ir.Constant(ir.DoubleType(), 2.0))
+    tx = builder.fmul(two, builder.call(fabs, [vsx]))
+    ty = builder.fmul(two, builder.call(fabs, [vsy]))
+    bnd = []
+    for x, y, z in ((ax, ay, az), (bx, by, bz), (cx, cy, cz)):
+        fz = builder.call(fabs, [z])
+        bnd.append((builder.fadd(builder.call(fabs, [x]), builder.fmul(tx, fz)),
+                    builder.fadd(builder.call(fabs, [y]), builder.fmul(ty, fz))))
+    (pa, qa), (pb, qb), (pc, qc) = bnd
+    total = builder.fadd(builder.fadd(mul_add(pc, qb, pb, qc), mul_add(pa, qc, pc, qa)), mul_add(pb, qa, pa, qb))
+    edge_on = builder.fcmp_ordered("<=", builder.call(fabs, [det]),
+                                   builder.fmul(_splat(builder, ir.Constant(ir.DoubleType(), EDGE_ON)), total))
     num = builder.fadd(builder.fadd(builder.fmul(e0, az), builder.fmul(e1, bz)), builder.fmul(e2, cz))
     t = builder.fdiv(builder.fmul(_splat(builder, sz), num), det)
-    hit = builder.and_(builder.and_(inside, builder.not_(on_edge)), builder.fcmp_ordered("!=", det, zero))
+    hit = builder.and_(builder.and_(inside, builder.not_(on_edge)), builder.not_(edge_on))
     hit = builder.and_(hit, builder.and_(builder.fcmp_ordered("<", _splat(builder, t_min), t),
                                          builder.fcmp_ordered("<", t, _splat(builder, t_max))))
     inf = _splat(builder, ir.Constant(ir.DoubleType(), float("inf")))
