@@ -8,10 +8,10 @@ intersect.watertight_triangle's arithmetic at once: every lane does the scalar o
 the bit. A lane whose three edge functions have no mixed signs but include an exact 0 (a ray through an edge or a
 vertex, or an edge-on triangle) is not decided here: it is flagged, and the caller sends that triangle to the
 scalar test, whose tie-break (intersect.edge_tie) stays the only one; a determinant 0 up to its rounding bound
-(intersect.edge_on, the same operations in the same order) is a miss, as there. Measured in the count walk
-on incoherent rays: 0.89-0.94x its time on the bunny, 0.82x on the 1.1M bunny, the same counts (benchmarks/walk_leaf4.py,
-benchmarks/README.md); in the closest walk it did not pay (1.05x: 2.1 leaves a ray, each culled by the best hit),
-so single.blas_closest keeps the scalar loop.
+(intersect.edge_on, the same operations in the same order) is a miss, as there. Measured in the count walk on
+incoherent rays: 0.89-0.94x its time on the bunny, 0.82x on the 1.1M bunny, the same counts
+(benchmarks/walk_leaf4.py, benchmarks/README.md); in the closest walk it did not pay (1.05x: 2.1 leaves a ray,
+each culled by the best hit), so single.blas_closest keeps the scalar loop.
 """
 
 from __future__ import annotations
