@@ -46,6 +46,11 @@ packets too: the packet walk's node test with no culling but the rays' t_max, un
 instance's tree (`packet_all_instances`), each triangle tested against the 16 rays with the one-ray arithmetic and
 tie-break, each ray's hits counted and, for lists, kept in a buffer of HIT_CAP a ray.
 
+**Counting one ray's hits** (queued.py, leaf4.py). count_intersections' rays that are not in packets walk
+`queued.blas_count`: the pending nodes in a ring queue, first in first out, so a child's prefetch lands before its
+visit; where the scene has no spheres a leaf's triangles go 4 at a time through `leaf4.triangles4`, the watertight
+test's arithmetic on <4 x double> lanes (the scalar answers to the bit; a ray on an edge or vertex to the scalar test).
+
 **The query API's bands** (bands.py, queries.py). The user's rays are read as given (float32 or float64, any
 strides) one cache-sized band at a time into float64 scratch, checked, traced by the walks above, and every
 output is written from the scratch while it is in cache.

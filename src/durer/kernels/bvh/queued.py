@@ -11,7 +11,8 @@ incoherent rays, one thread, the walk alone: 0.87-0.98x the time of the stack wa
 On coherent rays (occupancy's Morton-sorted points) the stack walk was faster: kernels/points/crossings.py keeps it.
 
 blas_count counts the hits single.blas_all finds (every hit with t_min < t < t_max, a sphere's two roots twice),
-with the same tests, so the same hits, and stores nothing (count_intersections' one-ray path).
+with the same tests, so the same hits, and stores nothing (count_intersections' one-ray path); a leaf of a tree
+without spheres goes through leaf4.count_hits4 (its triangles 4 at a time in one vector pass, the same answers).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 from ..common import JIT
 from ..intersect import sphere_hit_in_object_space, watertight_triangle
 from .layout import leaf_range
+from .leaf4 import count_hits4
 from .single import node_dists4, prefetch_children, ray_setup
 
 QUEUE_FIFO = 64  # queued nodes up to which the walk takes the oldest (beyond: the newest, depth first)
@@ -76,6 +78,9 @@ def blas_count(bounds, child, root, leaf_prim, leaf_tri, sph_center, sph_radius,
             tail += np.uint64(d3 < np.inf)
             continue
         first, end = leaf_range(node)
+        if sph_center.shape[0] == 0:  # triangles only: up to 4 a vector pass (leaf4.py: 0.82-0.94x the time)
+            n += count_hits4(leaf_tri, first, end, kx, ky, kz, okx, oky, okz, sx, sy, sz, t_min, t_max)
+            continue
         for j in range(first, end):
             p = leaf_prim[j]
             if p >= 0:
