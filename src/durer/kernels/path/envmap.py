@@ -98,7 +98,12 @@ def envmap_eval_pdf(env, dx, dy, dz):
 def _last_at_most(cdf, n, u):
     """The last k in [0, n) with cdf[k] <= u (cdf non-decreasing from cdf[0] = 0): NumPy's
     searchsorted(side="right") - 1, clipped, by bisection."""
-    lo, hi = 0, n
+    return _bisect(cdf, 0, n, u)
+
+
+@nb.njit(**JIT, inline="always")
+def _bisect(cdf, lo, hi, u):
+    """The last k in [lo, hi) with cdf[k] <= u, given cdf[lo] <= u (or lo = 0) and cdf[hi] > u (or hi = n)."""
     while hi - lo > 1:
         mid = (lo + hi) // 2
         if cdf[mid] <= u:
@@ -115,14 +120,7 @@ def _guided(cdf, guide, n, u):
     few steps within a cache line or two of the cdf instead of ~log2(n) steps across it, each a likely cache miss
     (museum.exr, 512 x 256: envmap_sample 261 -> 233 ns, medians of 5 alternating processes, loaded machine)."""
     g = min(int(u * GUIDE), GUIDE - 1)
-    lo, hi = guide[g], min(guide[g + 1] + 1, n)
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if cdf[mid] <= u:
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    return _bisect(cdf, guide[g], min(guide[g + 1] + 1, n), u)
 
 
 def guide_of(cdf: np.ndarray, n: int) -> np.ndarray:
