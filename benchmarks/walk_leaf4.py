@@ -39,8 +39,9 @@ from walk_variants import run_a, timed
 
 from durer.accel.bvh import build_tree
 from durer.kernels.bvh.layout import LEAF_COUNT_BITS, leaf_code, leaf_range
+from durer.kernels.bvh.leaf4 import _watertight4  # the shipped lanes' arithmetic, edge-on rule included
 from durer.kernels.bvh.queued import QUEUE_FIFO, blas_count, queue_start, ring_for
-from durer.kernels.bvh.simd import _F64x4, _prefetch_bytes, _splat
+from durer.kernels.bvh.simd import _F64x4, _prefetch_bytes
 from durer.kernels.bvh.single import node_dists4, prefetch_children, push_nearest_first, ray_setup
 from durer.kernels.common import MISS, TRIANGLE
 from durer.kernels.intersect import sphere_hit_in_object_space, watertight_triangle
@@ -56,51 +57,6 @@ _I1x4 = ir.VectorType(ir.IntType(1), 4)
 def _row(builder, data, offset):
     ptr = builder.bitcast(builder.gep(data, [offset]), _F32x4.as_pointer())
     return builder.fpext(builder.load(ptr, align=4), _F64x4)
-
-
-def _watertight4(context, builder, signature, at, ox_, oy_, oz_, sx_, sy_, sz_, lo, hi, cnt):
-    """tri4's arithmetic on rows at(vertex, axis index k) of 4 float64 lanes: the tuple tri4 returns."""
-    i64 = ir.IntType(64)
-    okx, oky, okz = _splat(builder, ox_), _splat(builder, oy_), _splat(builder, oz_)
-    vsx, vsy = _splat(builder, sx_), _splat(builder, sy_)
-    az = builder.fsub(at(0, 2), okz)
-    bz = builder.fsub(at(1, 2), okz)
-    cz = builder.fsub(at(2, 2), okz)
-    ax = builder.fsub(builder.fsub(at(0, 0), okx), builder.fmul(vsx, az))
-    ay = builder.fsub(builder.fsub(at(0, 1), oky), builder.fmul(vsy, az))
-    bx = builder.fsub(builder.fsub(at(1, 0), okx), builder.fmul(vsx, bz))
-    by = builder.fsub(builder.fsub(at(1, 1), oky), builder.fmul(vsy, bz))
-    cx = builder.fsub(builder.fsub(at(2, 0), okx), builder.fmul(vsx, cz))
-    cy = builder.fsub(builder.fsub(at(2, 1), oky), builder.fmul(vsy, cz))
-    e0 = builder.fsub(builder.fmul(cx, by), builder.fmul(cy, bx))
-    e1 = builder.fsub(builder.fmul(ax, cy), builder.fmul(ay, cx))
-    e2 = builder.fsub(builder.fmul(bx, ay), builder.fmul(by, ax))
-    zero = _splat(builder, ir.Constant(ir.DoubleType(), 0.0))
-
-    def any3(op):
-        return builder.or_(builder.or_(builder.fcmp_ordered(op, e0, zero), builder.fcmp_ordered(op, e1, zero)),
-                           builder.fcmp_ordered(op, e2, zero))
-
-    neg, pos, iszero = any3("<"), any3(">"), any3("==")
-    lanes = ir.Constant(ir.VectorType(i64, 4), [0, 1, 2, 3])
-    nv = builder.insert_element(ir.Constant(ir.VectorType(i64, 4), ir.Undefined), cnt, ir.Constant(ir.IntType(32), 0))
-    nv = builder.shuffle_vector(nv, nv, ir.Constant(ir.VectorType(ir.IntType(32), 4), [0, 0, 0, 0]))
-    valid = builder.icmp_signed("<", lanes, nv)
-    open_ = builder.and_(valid, builder.not_(builder.and_(neg, pos)))
-    tie = builder.and_(open_, iszero)
-    det = builder.fadd(builder.fadd(e0, e1), e2)
-    num = builder.fadd(builder.fadd(builder.fmul(e0, az), builder.fmul(e1, bz)), builder.fmul(e2, cz))
-    t = builder.fdiv(builder.fmul(_splat(builder, sz_), num), det)
-    hit = builder.and_(builder.and_(open_, builder.not_(iszero)), builder.fcmp_ordered("!=", det, zero))
-    hit = builder.and_(hit, builder.and_(builder.fcmp_ordered("<", _splat(builder, lo), t),
-                                         builder.fcmp_ordered("<", t, _splat(builder, hi))))
-    inf = _splat(builder, ir.Constant(ir.DoubleType(), float("inf")))
-    tv = builder.select(hit, t, inf)
-    out = []
-    for vec in (tv, builder.fdiv(e1, det), builder.fdiv(e2, det)):
-        out += [builder.extract_element(vec, ir.Constant(ir.IntType(32), k)) for k in range(4)]
-    out.append(builder.zext(builder.bitcast(tie, ir.IntType(4)), i64))
-    return context.make_tuple(builder, signature.return_type, out)
 
 
 @intrinsic
